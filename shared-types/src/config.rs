@@ -1,0 +1,589 @@
+//! The controller configuration: `config/default.toml` and the robot files `config/robots/*.toml`.
+//!
+//! Both are embedded in the binary, so `rc demo` runs from a bare clone; a file given with
+//! `--config` replaces the embedded default, and its `robot = "name"` is looked up first in the
+//! `robots/` folder beside it, then among the embedded robots. Every value is checked at load
+//! time; an error names the file, the key and the allowed range.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+/// The embedded `config/default.toml`.
+pub const EMBEDDED_DEFAULT: &str = include_str!("../../config/default.toml");
+
+/// The embedded robot files, by name.
+pub const EMBEDDED_ROBOTS: [(&str, &str); 6] = [
+    ("jaka_zu_3", include_str!("../../config/robots/jaka_zu_3.toml")),
+    ("jaka_zu_5", include_str!("../../config/robots/jaka_zu_5.toml")),
+    ("jaka_zu_7", include_str!("../../config/robots/jaka_zu_7.toml")),
+    ("jaka_zu_12", include_str!("../../config/robots/jaka_zu_12.toml")),
+    ("jaka_zu_18", include_str!("../../config/robots/jaka_zu_18.toml")),
+    ("ur5e", include_str!("../../config/robots/ur5e.toml")),
+];
+
+/// A configuration file is missing, malformed or holds a value out of range.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("{file}: cannot read: {source}")]
+    Read {
+        file: String,
+        source: std::io::Error,
+    },
+    #[error("{file}: {message}")]
+    Parse { file: String, message: String },
+    #[error("{file}: {key} = {value} is out of range (allowed {allowed})")]
+    Range {
+        file: String,
+        key: String,
+        value: String,
+        allowed: String,
+    },
+    #[error("{file}: robot = \"{robot}\" names no file {robot}.toml in {dir} nor an embedded robot ({known})")]
+    UnknownRobot {
+        file: String,
+        robot: String,
+        dir: String,
+        known: String,
+    },
+}
+
+/// The whole configuration of one controller.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Where the main file came from (a path, or `<embedded default.toml>`).
+    pub source: String,
+    /// The path to pass to child processes (`None` = embedded default).
+    pub path: Option<PathBuf>,
+    pub main: MainConfig,
+    pub robot: RobotConfig,
+}
+
+/// `default.toml`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MainConfig {
+    /// Prefix of every IPC service name; two controllers on one machine need different ones.
+    pub instance: String,
+    /// Robot file name without `.toml`.
+    pub robot: String,
+    pub fieldbus: FieldbusConfig,
+    pub interpreter: InterpreterConfig,
+    pub planner: PlannerConfig,
+    pub servo: ServoConfig,
+    pub orchestrator: OrchestratorConfig,
+}
+
+/// `[fieldbus]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldbusConfig {
+    /// `tcp`: the TCP gateway transport.
+    pub transport: String,
+    /// Listen address of the TCP gateway transport.
+    pub listen: String,
+    pub telegram_length_plc_to_rob: u16,
+    pub telegram_length_rob_to_plc: u16,
+    /// How long to wait for the interpreter's answer before dropping a request.
+    pub reply_timeout_ms: u64,
+}
+
+/// `[interpreter]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InterpreterConfig {
+    /// Lifesign timeout until the PLC sets its own with ExchangeConfiguration.
+    pub lifesign_timeout_ms: u16,
+    /// Entries of the Active Command Register (reported as LengthACR).
+    pub acr_length: u16,
+    /// Messages kept for ReadMessages.
+    pub message_capacity: u16,
+    /// Speed override after start-up, percent.
+    pub initial_override_percent: f64,
+    /// Time the planner may stay silent before the interpreter declares it lost.
+    pub planner_timeout_ms: u64,
+    /// Identity reported by ReadRobotData.
+    pub manufacturer: String,
+    pub serial_number: String,
+}
+
+/// `[planner]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlannerConfig {
+    /// Moves the primary sequence buffers.
+    pub queue_length: u16,
+    /// Share of the acceleration limit kept free for override changes during a move.
+    pub override_reserve: f64,
+}
+
+/// `[servo]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ServoConfig {
+    /// Interpolation period.
+    pub period_us: u64,
+    /// Time without a fresh setpoint after which the drives stop the arm.
+    pub setpoint_timeout_ms: u64,
+    /// Simulated time from power request to powered.
+    pub power_on_delay_ms: u64,
+    /// Simulated time from enable request to enabled.
+    pub enable_delay_ms: u64,
+}
+
+/// `[orchestrator]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrchestratorConfig {
+    /// Restarts allowed within `restart_window_s` before the controller gives up.
+    pub max_restarts: u32,
+    pub restart_window_s: u64,
+    /// Time a service gets to exit after SIGTERM before it is killed.
+    pub shutdown_timeout_ms: u64,
+}
+
+/// `robots/<name>.toml`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotConfig {
+    pub name: String,
+    pub manufacturer: String,
+    /// Where the numbers come from.
+    pub sources: Vec<String>,
+    pub kinematics: KinematicsConfig,
+    pub joints: JointLimits,
+    pub cartesian: CartesianLimits,
+    /// Joint position the simulated arm starts in, degrees.
+    pub home_deg: [f64; 6],
+}
+
+/// Standard Denavit-Hartenberg parameters: T_i = Rz(q_i + offset_i)·Tz(d_i)·Tx(a_i)·Rx(alpha_i).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KinematicsConfig {
+    pub d_m: [f64; 6],
+    pub a_m: [f64; 6],
+    pub alpha_deg: [f64; 6],
+    pub offset_deg: [f64; 6],
+}
+
+/// Joint limits, degrees.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointLimits {
+    pub min_deg: [f64; 6],
+    pub max_deg: [f64; 6],
+    pub max_velocity_deg_s: [f64; 6],
+    pub max_acceleration_deg_s2: [f64; 6],
+    pub max_jerk_deg_s3: [f64; 6],
+}
+
+/// Cartesian reference dynamics of the TCP.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CartesianLimits {
+    pub max_velocity_mm_s: f64,
+    pub max_acceleration_mm_s2: f64,
+    pub max_jerk_mm_s3: f64,
+}
+
+impl Config {
+    /// Loads `path`, or the embedded default when `None`.
+    pub fn load(path: Option<&Path>) -> Result<Self, ConfigError> {
+        let (source, text, dir) = match path {
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|source| ConfigError::Read {
+                    file: p.display().to_string(),
+                    source,
+                })?;
+                let dir = p.parent().map(Path::to_path_buf);
+                (p.display().to_string(), text, dir)
+            }
+            None => (
+                "<embedded config/default.toml>".to_string(),
+                EMBEDDED_DEFAULT.to_string(),
+                None,
+            ),
+        };
+        let main: MainConfig = parse(&source, &text)?;
+        main.validate(&source)?;
+        let (robot_source, robot_text) = find_robot(&source, dir.as_deref(), &main.robot)?;
+        let robot: RobotConfig = parse(&robot_source, &robot_text)?;
+        robot.validate(&robot_source)?;
+        Ok(Self {
+            source,
+            path: path.map(Path::to_path_buf),
+            main,
+            robot,
+        })
+    }
+}
+
+fn parse<T: serde::de::DeserializeOwned>(file: &str, text: &str) -> Result<T, ConfigError> {
+    toml::from_str(text).map_err(|e| ConfigError::Parse {
+        file: file.to_string(),
+        message: e.to_string().trim_end().to_string(),
+    })
+}
+
+fn find_robot(
+    file: &str,
+    dir: Option<&Path>,
+    robot: &str,
+) -> Result<(String, String), ConfigError> {
+    if let Some(dir) = dir {
+        let candidate = dir.join("robots").join(format!("{robot}.toml"));
+        if candidate.is_file() {
+            let text =
+                std::fs::read_to_string(&candidate).map_err(|source| ConfigError::Read {
+                    file: candidate.display().to_string(),
+                    source,
+                })?;
+            return Ok((candidate.display().to_string(), text));
+        }
+    }
+    EMBEDDED_ROBOTS
+        .iter()
+        .find(|(name, _)| *name == robot)
+        .map(|(name, text)| {
+            (
+                format!("<embedded config/robots/{name}.toml>"),
+                text.to_string(),
+            )
+        })
+        .ok_or_else(|| ConfigError::UnknownRobot {
+            file: file.to_string(),
+            robot: robot.to_string(),
+            dir: dir
+                .map(|d| d.join("robots").display().to_string())
+                .unwrap_or_else(|| "<none>".into()),
+            known: EMBEDDED_ROBOTS
+                .iter()
+                .map(|(n, _)| *n)
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
+}
+
+/// Collects range checks of one file.
+struct Checker<'a> {
+    file: &'a str,
+}
+
+impl Checker<'_> {
+    fn range<T: PartialOrd + core::fmt::Display + Copy>(
+        &self,
+        key: &str,
+        value: T,
+        min: T,
+        max: T,
+    ) -> Result<(), ConfigError> {
+        if value >= min && value <= max {
+            Ok(())
+        } else {
+            Err(self.out_of_range(key, value, format!("{min}..={max}")))
+        }
+    }
+
+    fn positive(&self, key: &str, value: f64) -> Result<(), ConfigError> {
+        if value.is_finite() && value > 0.0 {
+            Ok(())
+        } else {
+            Err(self.out_of_range(key, value, "a finite number > 0".into()))
+        }
+    }
+
+    fn finite(&self, key: &str, value: f64) -> Result<(), ConfigError> {
+        if value.is_finite() {
+            Ok(())
+        } else {
+            Err(self.out_of_range(key, value, "a finite number".into()))
+        }
+    }
+
+    fn out_of_range(
+        &self,
+        key: &str,
+        value: impl core::fmt::Display,
+        allowed: String,
+    ) -> ConfigError {
+        ConfigError::Range {
+            file: self.file.to_string(),
+            key: key.to_string(),
+            value: value.to_string(),
+            allowed,
+        }
+    }
+}
+
+impl MainConfig {
+    fn validate(&self, file: &str) -> Result<(), ConfigError> {
+        let c = Checker { file };
+        let name_ok = !self.instance.is_empty()
+            && self.instance.len() <= 32
+            && self
+                .instance
+                .bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
+        if !name_ok {
+            return Err(c.out_of_range(
+                "instance",
+                format!("\"{}\"", self.instance),
+                "1 to 32 characters of A-Z a-z 0-9 _ -".into(),
+            ));
+        }
+        if self.fieldbus.transport != "tcp" {
+            return Err(c.out_of_range(
+                "fieldbus.transport",
+                format!("\"{}\"", self.fieldbus.transport),
+                "\"tcp\"".into(),
+            ));
+        }
+        if self
+            .fieldbus
+            .listen
+            .parse::<std::net::SocketAddr>()
+            .is_err()
+        {
+            return Err(c.out_of_range(
+                "fieldbus.listen",
+                format!("\"{}\"", self.fieldbus.listen),
+                "an address with port, e.g. \"127.0.0.1:5000\"".into(),
+            ));
+        }
+        c.range(
+            "fieldbus.telegram_length_plc_to_rob",
+            self.fieldbus.telegram_length_plc_to_rob,
+            64,
+            256,
+        )?;
+        c.range(
+            "fieldbus.telegram_length_rob_to_plc",
+            self.fieldbus.telegram_length_rob_to_plc,
+            64,
+            256,
+        )?;
+        c.range(
+            "fieldbus.reply_timeout_ms",
+            self.fieldbus.reply_timeout_ms,
+            1,
+            1000,
+        )?;
+        c.range(
+            "interpreter.lifesign_timeout_ms",
+            self.interpreter.lifesign_timeout_ms,
+            10,
+            10_000,
+        )?;
+        c.range("interpreter.acr_length", self.interpreter.acr_length, 1, 64)?;
+        c.range(
+            "interpreter.message_capacity",
+            self.interpreter.message_capacity,
+            1,
+            1024,
+        )?;
+        c.range(
+            "interpreter.initial_override_percent",
+            self.interpreter.initial_override_percent,
+            0.0,
+            100.0,
+        )?;
+        c.range(
+            "interpreter.planner_timeout_ms",
+            self.interpreter.planner_timeout_ms,
+            5,
+            5_000,
+        )?;
+        c.range(
+            "interpreter.manufacturer (length)",
+            self.interpreter.manufacturer.len(),
+            1,
+            20,
+        )?;
+        c.range(
+            "interpreter.serial_number (length)",
+            self.interpreter.serial_number.len(),
+            1,
+            16,
+        )?;
+        c.range("planner.queue_length", self.planner.queue_length, 1, 256)?;
+        c.range(
+            "planner.override_reserve",
+            self.planner.override_reserve,
+            0.05,
+            0.5,
+        )?;
+        c.range("servo.period_us", self.servo.period_us, 250, 8_000)?;
+        c.range(
+            "servo.setpoint_timeout_ms",
+            self.servo.setpoint_timeout_ms,
+            1,
+            1_000,
+        )?;
+        c.range(
+            "servo.power_on_delay_ms",
+            self.servo.power_on_delay_ms,
+            0,
+            60_000,
+        )?;
+        c.range(
+            "servo.enable_delay_ms",
+            self.servo.enable_delay_ms,
+            0,
+            60_000,
+        )?;
+        c.range(
+            "orchestrator.max_restarts",
+            self.orchestrator.max_restarts,
+            0,
+            100,
+        )?;
+        c.range(
+            "orchestrator.restart_window_s",
+            self.orchestrator.restart_window_s,
+            1,
+            3_600,
+        )?;
+        c.range(
+            "orchestrator.shutdown_timeout_ms",
+            self.orchestrator.shutdown_timeout_ms,
+            10,
+            60_000,
+        )?;
+        Ok(())
+    }
+}
+
+impl RobotConfig {
+    fn validate(&self, file: &str) -> Result<(), ConfigError> {
+        let c = Checker { file };
+        let k = &self.kinematics;
+        for i in 0..6 {
+            c.finite(&format!("kinematics.d_m[{i}]"), k.d_m[i])?;
+            c.finite(&format!("kinematics.a_m[{i}]"), k.a_m[i])?;
+            c.range(
+                &format!("kinematics.alpha_deg[{i}]"),
+                k.alpha_deg[i],
+                -180.0,
+                180.0,
+            )?;
+            c.range(
+                &format!("kinematics.offset_deg[{i}]"),
+                k.offset_deg[i],
+                -360.0,
+                360.0,
+            )?;
+            let j = &self.joints;
+            c.range(&format!("joints.min_deg[{i}]"), j.min_deg[i], -720.0, 720.0)?;
+            c.range(
+                &format!("joints.max_deg[{i}]"),
+                j.max_deg[i],
+                j.min_deg[i] + 1.0,
+                720.0,
+            )?;
+            c.positive(
+                &format!("joints.max_velocity_deg_s[{i}]"),
+                j.max_velocity_deg_s[i],
+            )?;
+            c.positive(
+                &format!("joints.max_acceleration_deg_s2[{i}]"),
+                j.max_acceleration_deg_s2[i],
+            )?;
+            c.positive(
+                &format!("joints.max_jerk_deg_s3[{i}]"),
+                j.max_jerk_deg_s3[i],
+            )?;
+            c.range(
+                &format!("home_deg[{i}]"),
+                self.home_deg[i],
+                j.min_deg[i],
+                j.max_deg[i],
+            )?;
+        }
+        c.positive(
+            "cartesian.max_velocity_mm_s",
+            self.cartesian.max_velocity_mm_s,
+        )?;
+        c.positive(
+            "cartesian.max_acceleration_mm_s2",
+            self.cartesian.max_acceleration_mm_s2,
+        )?;
+        c.positive("cartesian.max_jerk_mm_s3", self.cartesian.max_jerk_mm_s3)?;
+        Ok(())
+    }
+
+    /// Joint limits in SI units (rad, rad/s, rad/s², rad/s³).
+    pub fn limits_rad(&self) -> JointLimitsRad {
+        let r = |v: [f64; 6]| v.map(f64::to_radians);
+        JointLimitsRad {
+            min: r(self.joints.min_deg),
+            max: r(self.joints.max_deg),
+            velocity: r(self.joints.max_velocity_deg_s),
+            acceleration: r(self.joints.max_acceleration_deg_s2),
+            jerk: r(self.joints.max_jerk_deg_s3),
+        }
+    }
+}
+
+/// Joint limits in rad-based SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointLimitsRad {
+    pub min: [f64; 6],
+    pub max: [f64; 6],
+    pub velocity: [f64; 6],
+    pub acceleration: [f64; 6],
+    pub jerk: [f64; 6],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_default_and_every_robot_load() {
+        let cfg = Config::load(None).expect("embedded default");
+        assert_eq!(cfg.main.robot, "jaka_zu_7");
+        for (name, text) in EMBEDDED_ROBOTS {
+            let robot: RobotConfig = parse(name, text).expect(name);
+            robot.validate(name).expect(name);
+        }
+    }
+
+    #[test]
+    fn out_of_range_value_names_file_key_and_range() {
+        let dir = std::env::temp_dir().join(format!("rc-config-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("bad.toml");
+        let text = EMBEDDED_DEFAULT.replace(
+            "telegram_length_plc_to_rob = 256",
+            "telegram_length_plc_to_rob = 300",
+        );
+        std::fs::write(&file, text).unwrap();
+        let err = Config::load(Some(&file)).unwrap_err().to_string();
+        assert!(err.contains("bad.toml"), "{err}");
+        assert!(err.contains("fieldbus.telegram_length_plc_to_rob = 300"), "{err}");
+        assert!(err.contains("64..=256"), "{err}");
+    }
+
+    #[test]
+    fn unknown_key_and_unknown_robot_are_reported() {
+        let dir = std::env::temp_dir().join(format!("rc-config-test2-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("typo.toml");
+        std::fs::write(
+            &file,
+            EMBEDDED_DEFAULT.replace("reply_timeout_ms", "reply_timout_ms"),
+        )
+        .unwrap();
+        let err = Config::load(Some(&file)).unwrap_err().to_string();
+        assert!(err.contains("typo.toml") && err.contains("reply_timout_ms"), "{err}");
+
+        std::fs::write(
+            &file,
+            EMBEDDED_DEFAULT.replace("robot = \"jaka_zu_7\"", "robot = \"zu99\""),
+        )
+        .unwrap();
+        let err = Config::load(Some(&file)).unwrap_err().to_string();
+        assert!(err.contains("zu99") && err.contains("jaka_zu_7"), "{err}");
+    }
+}

@@ -1,0 +1,356 @@
+//! The payloads exchanged between the rc processes over iceoryx2, and the one place that
+//! knows every topic's name and quality of service.
+//!
+//! Every payload is `#[repr(C)]`, fixed size and free of pointers, so it can live in shared
+//! memory. Enumerations travel as plain integers (`u8`) so that a corrupted or newer value
+//! can never be undefined behaviour in the receiver; the `from_wire` helpers decode them.
+
+use iceoryx2::prelude::*;
+
+/// Largest SRCI telegram a fieldbus module carries (bytes, each direction).
+pub const TELEGRAM_CAPACITY: usize = 256;
+/// Number of joints of the arm.
+pub const AXES: usize = 6;
+/// Number of future ticks a planner setpoint window covers.
+pub const SETPOINT_WINDOW: usize = 4;
+/// Number of recent per-command events the planner keeps in its status.
+pub const JOB_EVENTS: usize = 32;
+
+/// What a [`PlcTelegram`] sample reports.
+#[repr(u8)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinkEvent {
+    /// `bytes[..len]` holds a PLC→robot telegram.
+    Telegram = 0,
+    /// A new fieldbus peer connected (a new TCP client, or a new PROFINET AR).
+    Connected = 1,
+    /// The fieldbus peer went away; no telegrams will follow until `Connected`.
+    Disconnected = 2,
+}
+
+impl LinkEvent {
+    /// Decodes the wire value; unknown values are treated as a lost link.
+    pub fn from_wire(v: u8) -> Self {
+        match v {
+            0 => Self::Telegram,
+            1 => Self::Connected,
+            _ => Self::Disconnected,
+        }
+    }
+}
+
+/// fieldbus → interpreter: one raw PLC→robot telegram (topic `srci/p2r`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[type_name("rc::PlcTelegram")]
+pub struct PlcTelegram {
+    /// Increments with every sample; the answer echoes it.
+    pub counter: u64,
+    /// CLOCK_MONOTONIC time the last byte arrived, in ns.
+    pub received_ns: u64,
+    /// Connection number; increments with every new peer.
+    pub connection: u32,
+    /// [`LinkEvent`] as `u8`.
+    pub event: u8,
+    pub reserved: u8,
+    /// Number of valid bytes in `bytes`.
+    pub len: u16,
+    pub bytes: [u8; TELEGRAM_CAPACITY],
+}
+
+impl PlcTelegram {
+    /// An empty sample of the given kind.
+    pub fn event(counter: u64, received_ns: u64, connection: u32, event: LinkEvent) -> Self {
+        Self {
+            counter,
+            received_ns,
+            connection,
+            event: event as u8,
+            reserved: 0,
+            len: 0,
+            bytes: [0; TELEGRAM_CAPACITY],
+        }
+    }
+
+    /// The telegram bytes (empty for link events).
+    pub fn telegram(&self) -> &[u8] {
+        &self.bytes[..usize::from(self.len).min(TELEGRAM_CAPACITY)]
+    }
+}
+
+/// interpreter → fieldbus: the robot→PLC answer to one [`PlcTelegram`] (topic `srci/r2p`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[type_name("rc::RobotTelegram")]
+pub struct RobotTelegram {
+    /// The `counter` of the PLC telegram this answers.
+    pub counter: u64,
+    pub connection: u32,
+    pub reserved: u16,
+    pub len: u16,
+    pub bytes: [u8; TELEGRAM_CAPACITY],
+}
+
+/// Kind of a [`MotionCommand`].
+#[repr(u8)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MotionCommandKind {
+    /// Joint-space point-to-point move to `joints_rad`.
+    MoveAxes = 1,
+    /// GroupStop: stop as fast as the limits allow on the path, discard the queue.
+    Stop = 2,
+    /// ChangeSpeedOverride to `override_fraction`.
+    Override = 3,
+    /// GroupReset: clear the planner's error state.
+    Reset = 4,
+    /// The PLC link was lost or reset: stop on the path and discard everything, no error.
+    Halt = 5,
+}
+
+impl MotionCommandKind {
+    /// Decodes the wire value.
+    pub fn from_wire(v: u8) -> Option<Self> {
+        Some(match v {
+            1 => Self::MoveAxes,
+            2 => Self::Stop,
+            3 => Self::Override,
+            4 => Self::Reset,
+            5 => Self::Halt,
+            _ => return None,
+        })
+    }
+}
+
+/// interpreter → planner: one decoded, validated motion or group command (topic
+/// `motion/command`). The planner acknowledges `seq` in [`MotionStatus::acked_seq`]; the
+/// interpreter re-sends until then, so a command is never lost.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[type_name("rc::MotionCommand")]
+pub struct MotionCommand {
+    /// Strictly increasing per interpreter instance, starting at 1.
+    pub seq: u64,
+    /// The interpreter instance that issued it (a restarted interpreter starts a new one).
+    pub issuer: u64,
+    /// Job number the planner reports state changes under.
+    pub job: u32,
+    /// [`MotionCommandKind`] as `u8`.
+    pub kind: u8,
+    /// `true`: abort the running move and discard the queue first (ExecutionMode 1).
+    pub aborting: bool,
+    pub reserved: u16,
+    /// Target joints in rad (MoveAxes).
+    pub joints_rad: [f64; AXES],
+    /// Fractions of the robot's joint limits, in (0, 1].
+    pub velocity_scale: f64,
+    pub acceleration_scale: f64,
+    pub jerk_scale: f64,
+    /// Requested duration in s; 0 = as fast as the scaled limits allow.
+    pub duration_s: f64,
+    /// Override for `Override`, in [0, 1].
+    pub override_fraction: f64,
+}
+
+impl MotionCommand {
+    /// A command of `kind` with neutral parameters.
+    pub fn new(kind: MotionCommandKind) -> Self {
+        Self {
+            seq: 0,
+            issuer: 0,
+            job: 0,
+            kind: kind as u8,
+            aborting: false,
+            reserved: 0,
+            joints_rad: [0.0; AXES],
+            velocity_scale: 1.0,
+            acceleration_scale: 1.0,
+            jerk_scale: 1.0,
+            duration_s: 0.0,
+            override_fraction: 1.0,
+        }
+    }
+}
+
+/// A state change of one job, as reported by the planner.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+#[type_name("rc::JobEvent")]
+pub struct JobEvent {
+    /// Event number, strictly increasing per planner instance, starting at 1.
+    pub number: u64,
+    pub job: u32,
+    /// SRCI CmdMessageState (2 BUFFERED, 4 ACTIVE, 10 DONE, 14 ABORTED, 15 ERROR).
+    pub state: u8,
+    pub reserved: u8,
+    /// SRCI message code for ABORTED and ERROR (e.g. 0x6C05), else 0.
+    pub code: u16,
+}
+
+/// planner → interpreter: the planner's state, published every tick (topic `motion/status`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[type_name("rc::MotionStatus")]
+pub struct MotionStatus {
+    /// Random per planner process start; a change means the planner restarted.
+    pub instance: u64,
+    /// Servo tick the status belongs to.
+    pub tick: u64,
+    /// Highest [`MotionCommand::seq`] taken over from `acked_issuer`.
+    pub acked_seq: u64,
+    pub acked_issuer: u64,
+    /// Number of the newest event in `events` (0 = none yet).
+    pub event_head: u64,
+    /// Ring of the last [`JOB_EVENTS`] events; event `n` is at `n % JOB_EVENTS`.
+    pub events: [JobEvent; JOB_EVENTS],
+    /// The job being executed (0 = none) and its progress.
+    pub active_job: u32,
+    pub queued_jobs: u32,
+    pub active_progress: f64,
+    /// Commanded joint positions and velocities (rad, rad/s).
+    pub joints_rad: [f64; AXES],
+    pub joint_velocities: [f64; AXES],
+    /// Flange pose in the world frame: x, y, z in m, then Rx, Ry, Rz in rad (R = Rz·Ry·Rx).
+    pub flange_pose: [f64; 6],
+    /// Current override in [0, 1] (target of the ramp).
+    pub override_fraction: f64,
+    pub moving: bool,
+    pub accelerating: bool,
+    pub decelerating: bool,
+    pub constant_velocity: bool,
+    /// Pending planner error (SRCI code), 0 = none. Cleared by `Reset`.
+    pub error_code: u16,
+    pub reserved: u16,
+}
+
+/// One point of a joint trajectory.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("rc::JointPoint")]
+pub struct JointPoint {
+    pub q: [f64; AXES],
+    pub qd: [f64; AXES],
+    pub qdd: [f64; AXES],
+}
+
+/// planner → servo: setpoints for the next ticks (topic `servo/setpoint`). Sending a window
+/// lets the servo ride out a planner wake-up that comes a tick or two late.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[type_name("rc::ServoSetpoint")]
+pub struct ServoSetpoint {
+    pub planner_instance: u64,
+    /// Tick of `points[0]`; `points[i]` is for tick `first_tick + i`.
+    pub first_tick: u64,
+    pub points: [JointPoint; SETPOINT_WINDOW],
+}
+
+/// State of the (simulated) drives.
+#[repr(u8)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DriveState {
+    /// No power; brakes closed.
+    Off = 0,
+    PoweringOn = 1,
+    /// Powered, not yet enabled; brakes closed.
+    Powered = 2,
+    Enabling = 3,
+    /// Enabled and following fresh setpoints.
+    Following = 4,
+    /// Enabled, setpoints stale: bringing the arm to a controlled stop.
+    Stopping = 5,
+    /// Enabled and standing still, waiting for setpoints that continue from here.
+    Holding = 6,
+    /// A fault stopped the arm; it holds until the fault is reset.
+    Fault = 7,
+}
+
+impl DriveState {
+    /// Decodes the wire value.
+    pub fn from_wire(v: u8) -> Self {
+        match v {
+            0 => Self::Off,
+            1 => Self::PoweringOn,
+            2 => Self::Powered,
+            3 => Self::Enabling,
+            4 => Self::Following,
+            5 => Self::Stopping,
+            6 => Self::Holding,
+            _ => Self::Fault,
+        }
+    }
+
+    /// Drives are enabled and hold or move the arm under control.
+    pub fn is_enabled(self) -> bool {
+        matches!(self, Self::Following | Self::Stopping | Self::Holding)
+    }
+}
+
+/// servo → planner, interpreter: actual drive state every tick (topic `servo/feedback`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[type_name("rc::ServoFeedback")]
+pub struct ServoFeedback {
+    pub instance: u64,
+    pub tick: u64,
+    /// CLOCK_MONOTONIC time of the tick, ns.
+    pub time_ns: u64,
+    pub period_ns: u64,
+    pub q: [f64; AXES],
+    pub qd: [f64; AXES],
+    /// [`DriveState`] as `u8`.
+    pub state: u8,
+    pub reserved: u8,
+    /// Drive fault code (SRCI message code), 0 = none.
+    pub fault_code: u16,
+    pub reserved2: u32,
+    /// The last [`ServoControl::seq`] applied.
+    pub control_seq: u64,
+    /// Ticks with no setpoint for them, and ticks that started late.
+    pub setpoint_misses: u64,
+    pub overruns: u64,
+}
+
+/// interpreter → servo: requested power state (topic `servo/control`); latest value wins.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+#[type_name("rc::ServoControl")]
+pub struct ServoControl {
+    pub seq: u64,
+    pub power: bool,
+    pub enable: bool,
+    pub reserved: [u8; 6],
+    /// Incremented to acknowledge (clear) a drive fault.
+    pub fault_reset: u64,
+}
+
+/// The topics of the controller, with their payload and QoS.
+pub mod topics {
+    /// PLC→robot telegrams.
+    pub const P2R: &str = "srci/p2r";
+    /// Robot→PLC telegrams.
+    pub const R2P: &str = "srci/r2p";
+    /// Motion commands.
+    pub const MOTION_COMMAND: &str = "motion/command";
+    /// Planner status.
+    pub const MOTION_STATUS: &str = "motion/status";
+    /// Servo setpoints.
+    pub const SERVO_SETPOINT: &str = "servo/setpoint";
+    /// Servo feedback.
+    pub const SERVO_FEEDBACK: &str = "servo/feedback";
+    /// Power requests.
+    pub const SERVO_CONTROL: &str = "servo/control";
+
+    /// Every publish-subscribe topic, for creation and clean-up.
+    pub const ALL: [&str; 7] = [
+        P2R,
+        R2P,
+        MOTION_COMMAND,
+        MOTION_STATUS,
+        SERVO_SETPOINT,
+        SERVO_FEEDBACK,
+        SERVO_CONTROL,
+    ];
+    /// Topics whose publisher wakes the subscriber through a companion event service of the
+    /// same name.
+    pub const WITH_WAKEUP: [&str; 3] = [P2R, R2P, SERVO_FEEDBACK];
+}
