@@ -14,11 +14,26 @@ pub const EMBEDDED_DEFAULT: &str = include_str!("../../config/default.toml");
 
 /// The embedded robot files, by name.
 pub const EMBEDDED_ROBOTS: [(&str, &str); 6] = [
-    ("jaka_zu_3", include_str!("../../config/robots/jaka_zu_3.toml")),
-    ("jaka_zu_5", include_str!("../../config/robots/jaka_zu_5.toml")),
-    ("jaka_zu_7", include_str!("../../config/robots/jaka_zu_7.toml")),
-    ("jaka_zu_12", include_str!("../../config/robots/jaka_zu_12.toml")),
-    ("jaka_zu_18", include_str!("../../config/robots/jaka_zu_18.toml")),
+    (
+        "jaka_zu_3",
+        include_str!("../../config/robots/jaka_zu_3.toml"),
+    ),
+    (
+        "jaka_zu_5",
+        include_str!("../../config/robots/jaka_zu_5.toml"),
+    ),
+    (
+        "jaka_zu_7",
+        include_str!("../../config/robots/jaka_zu_7.toml"),
+    ),
+    (
+        "jaka_zu_12",
+        include_str!("../../config/robots/jaka_zu_12.toml"),
+    ),
+    (
+        "jaka_zu_18",
+        include_str!("../../config/robots/jaka_zu_18.toml"),
+    ),
     ("ur5e", include_str!("../../config/robots/ur5e.toml")),
 ];
 
@@ -39,7 +54,9 @@ pub enum ConfigError {
         value: String,
         allowed: String,
     },
-    #[error("{file}: robot = \"{robot}\" names no file {robot}.toml in {dir} nor an embedded robot ({known})")]
+    #[error(
+        "{file}: robot = \"{robot}\" names no file {robot}.toml in {dir} nor an embedded robot ({known})"
+    )]
     UnknownRobot {
         file: String,
         robot: String,
@@ -234,11 +251,10 @@ fn find_robot(
     if let Some(dir) = dir {
         let candidate = dir.join("robots").join(format!("{robot}.toml"));
         if candidate.is_file() {
-            let text =
-                std::fs::read_to_string(&candidate).map_err(|source| ConfigError::Read {
-                    file: candidate.display().to_string(),
-                    source,
-                })?;
+            let text = std::fs::read_to_string(&candidate).map_err(|source| ConfigError::Read {
+                file: candidate.display().to_string(),
+                source,
+            })?;
             return Ok((candidate.display().to_string(), text));
         }
     }
@@ -561,7 +577,10 @@ mod tests {
         std::fs::write(&file, text).unwrap();
         let err = Config::load(Some(&file)).unwrap_err().to_string();
         assert!(err.contains("bad.toml"), "{err}");
-        assert!(err.contains("fieldbus.telegram_length_plc_to_rob = 300"), "{err}");
+        assert!(
+            err.contains("fieldbus.telegram_length_plc_to_rob = 300"),
+            "{err}"
+        );
         assert!(err.contains("64..=256"), "{err}");
     }
 
@@ -576,7 +595,10 @@ mod tests {
         )
         .unwrap();
         let err = Config::load(Some(&file)).unwrap_err().to_string();
-        assert!(err.contains("typo.toml") && err.contains("reply_timout_ms"), "{err}");
+        assert!(
+            err.contains("typo.toml") && err.contains("reply_timout_ms"),
+            "{err}"
+        );
 
         std::fs::write(
             &file,

@@ -1,1 +1,13 @@
-//! placeholder
+//! The SRCI interpreter service: the robot-interface state machine, the Active Command
+//! Register and the semantics of every implemented command, as a pure core ([`server`])
+//! wrapped by a small process loop ([`service`]).
+
+pub mod acr;
+pub mod commands;
+pub mod messages;
+pub mod motion_link;
+pub mod responses;
+pub mod server;
+mod service;
+
+pub use service::{InterpreterError, run};

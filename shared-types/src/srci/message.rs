@@ -200,7 +200,10 @@ pub fn iec_date_time(unix_ms: u64) -> (u16, u32) {
     const DAYS_1970_TO_1990: u64 = 7305;
     let days = unix_ms / 86_400_000;
     let ms = (unix_ms % 86_400_000) as u32;
-    (days.saturating_sub(DAYS_1970_TO_1990).min(65_535) as u16, ms)
+    (
+        days.saturating_sub(DAYS_1970_TO_1990).min(65_535) as u16,
+        ms,
+    )
 }
 
 #[cfg(test)]

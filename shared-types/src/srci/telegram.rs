@@ -421,7 +421,10 @@ impl<'a> SequenceWriter<'a> {
 
     /// Appends a fragment carrying `data`; returns false (writing nothing) if it does not fit.
     pub fn push(&mut self, cmd_id: u16, action: u8, pointer: u16, data: &[u8]) -> bool {
-        if data.len() > self.room() || (data.is_empty() && self.area.len() < SEQUENCE_HEADER_LEN + self.used + FRAGMENT_HEADER_LEN) {
+        if data.len() > self.room()
+            || (data.is_empty()
+                && self.area.len() < SEQUENCE_HEADER_LEN + self.used + FRAGMENT_HEADER_LEN)
+        {
             return false;
         }
         let at = SEQUENCE_HEADER_LEN + self.used;
@@ -496,7 +499,12 @@ mod tests {
         let h = PlcHeader::decode(&expected).unwrap();
         h.encode(&mut t).unwrap();
         let mut w = SequenceWriter::new(&mut t[18..63], 7);
-        assert!(w.push(0x0101, FragmentAction::COMPLETE, 0, &[0x03, 0xE8, 0x10, 0x00]));
+        assert!(w.push(
+            0x0101,
+            FragmentAction::COMPLETE,
+            0,
+            &[0x03, 0xE8, 0x10, 0x00]
+        ));
         assert_eq!(t, expected);
     }
 
@@ -517,7 +525,12 @@ mod tests {
         .encode(&mut t)
         .unwrap();
         let mut w = SequenceWriter::new(&mut t[10..127], 5);
-        assert!(w.push(0x0101, FragmentAction::COMPLETE, 0, &[0x21, 0xFE, 0x12, 0x34, 0xAA]));
+        assert!(w.push(
+            0x0101,
+            FragmentAction::COMPLETE,
+            0,
+            &[0x21, 0xFE, 0x12, 0x34, 0xAA]
+        ));
         assert_eq!(t, expected);
         let h = RobotHeader::decode(&t).unwrap();
         assert_eq!(h.status, 0x81, "StatusRobotArm is little-endian");
@@ -534,7 +547,10 @@ mod tests {
         area[3] = 17; // PayloadLength 17 > 16 available
         assert!(matches!(
             Sequence::decode(&area),
-            Err(TelegramError::SequenceLength { length: 17, available: 16 })
+            Err(TelegramError::SequenceLength {
+                length: 17,
+                available: 16
+            })
         ));
         area[3] = 12; // one fragment header claiming 10 bytes but only 4 follow
         area[11] = 10;

@@ -1,0 +1,245 @@
+//! Command semantics: dispatch of complete command messages, the commands that live beyond
+//! one telegram (Enable-type commands and motion jobs), and the responses they send.
+
+mod motion;
+mod robot;
+mod session;
+
+use shared_types::srci::message::{
+    CommandHeader, ResponseHeader, code, execution_mode, severity, state,
+};
+use shared_types::srci::tables as t;
+
+use crate::messages::MessageType;
+use crate::server::{Effects, Now, Server};
+
+/// Command types this interpreter implements; RCSupportedFunctions announces exactly these.
+/// ReadActualPositionCyclic has no command type and is not offered yet.
+pub const IMPLEMENTED: [u16; 8] = [
+    t::read_robot_data::TYPE,
+    t::exchange_configuration::TYPE,
+    t::read_messages::TYPE,
+    t::enable_robot::TYPE,
+    t::group_reset::TYPE,
+    t::move_axes_absolute::TYPE,
+    t::read_actual_position::TYPE,
+    t::change_speed_override::TYPE,
+];
+
+/// A command that stays in the register after its first response.
+#[derive(Debug, Clone, Copy)]
+pub struct LiveCommand {
+    pub cmd_id: u16,
+    pub command_type: u16,
+    /// ParSeq of the parameter set the next response belongs to.
+    pub par_seq: u8,
+    pub kind: LiveKind,
+}
+
+/// What a live command is waiting for.
+#[derive(Debug, Clone, Copy)]
+pub enum LiveKind {
+    /// ReadMessages: `shown` is the MsgID in the last response, with the counts sent then;
+    /// `enable_seen` if the PLC sets the (library) Enable flag, so clearing it disables.
+    Messages {
+        level: i8,
+        shown: u8,
+        counts: (u8, u8),
+        enable_seen: bool,
+    },
+    /// ExchangeConfiguration, enabled.
+    Configuration,
+    /// EnableRobot: the requested drive state, the Enabled bit last reported, the request
+    /// time, and whether the drives were enabled since the request.
+    Enable {
+        want: bool,
+        reported: Option<bool>,
+        since_ms: u64,
+        reached: bool,
+    },
+    /// A command executed by the planner as `job`; `progress` last sent (percent × 100).
+    Job {
+        job: u32,
+        progress: u16,
+        sent_ms: u64,
+    },
+}
+
+/// Text for the message log of a command that ended with `code`.
+pub fn describe(code: u16) -> &'static str {
+    match code {
+        code::NOT_IMPLEMENTED => "command not implemented by this robot controller",
+        code::INVALID_EXECUTION_MODE => "execution mode not valid for this command",
+        code::ROBOT_DISABLED => "robot not enabled: EnableRobot first",
+        code::DISABLED_DUE_TO_ERROR => "robot in error: GroupReset first",
+        code::SW_LIMIT_LOWER => "target below the lower joint limit",
+        code::SW_LIMIT_UPPER => "target above the upper joint limit",
+        code::INVALID_ACCELERATION_RATE => "AccelerationRate out of range 0..100 %",
+        code::INVALID_VELOCITY_RATE => "VelocityRate out of range 0..100 %",
+        code::INVALID_JERK_RATE => "JerkRate out of range 0..100 %",
+        code::DECELERATION_RATE_NOT_SUPPORTED => {
+            "DecelerationRate other than the default is not supported yet"
+        }
+        code::INVALID_BLENDING_MODE => "BlendingMode is not a defined value",
+        code::BLENDING_MODE_NOT_SUPPORTED => "BlendingMode not supported yet (exact stop only)",
+        code::INVALID_JOINT_POSITION => "joint position is not a finite number",
+        code::INVALID_OVERRIDE => "Override out of range 0..100 %",
+        code::INVALID_TIME => "move cannot be done in the requested time",
+        code::TOOL_NOT_EXISTING => "ToolNo does not exist (only 0 and -1 so far)",
+        code::FRAME_NOT_EXISTING => "FrameNo does not exist (only 0 and -1 so far)",
+        code::INVALID_STEP_MODE => "StepMode is not a defined value",
+        code::STEP_MODE_NOT_SUPPORTED => "StepMode not supported yet",
+        code::MOTION_ERROR => "motion error: the move was stopped",
+        code::INVALID_MODE => "MessageLevel is not a defined value",
+        code::INTERNAL_ERROR => "internal error (Active Command Register full or message too long)",
+        _ => "command ended with an error",
+    }
+}
+
+/// Severity a response carries with `code`: infos (0x6xxx), warnings (0x7xxx), errors.
+fn severity_of(code: u16) -> i8 {
+    match code >> 12 {
+        0 => severity::NONE,
+        6 => severity::INFO,
+        7 => severity::WARNING,
+        _ => severity::ERROR,
+    }
+}
+
+impl Server {
+    /// A command message is complete in the register.
+    pub(crate) fn on_command_message(
+        &mut self,
+        cmd_id: u16,
+        msg: &[u8],
+        new_command: bool,
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        let h = CommandHeader::decode(msg);
+        if !new_command {
+            self.on_parameter_update(cmd_id, h, msg, now, fx);
+            return;
+        }
+        self.live.retain(|l| l.cmd_id != cmd_id);
+        let parallel_only = h.command_type != t::move_axes_absolute::TYPE;
+        let mode_ok = if parallel_only {
+            h.execution_mode == execution_mode::PARALLEL
+        } else {
+            matches!(
+                h.execution_mode,
+                execution_mode::SEQUENCE_PRIMARY | execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
+            )
+        };
+        let known = IMPLEMENTED.contains(&h.command_type);
+        if known && !mode_ok {
+            self.respond(
+                cmd_id,
+                h,
+                state::ERROR,
+                code::INVALID_EXECUTION_MODE,
+                now,
+                |_| {},
+            );
+            return;
+        }
+        match h.command_type {
+            t::read_robot_data::TYPE => self.read_robot_data(cmd_id, h, now),
+            t::exchange_configuration::TYPE => self.exchange_configuration(cmd_id, h, msg, now),
+            t::read_messages::TYPE => self.read_messages(cmd_id, h, msg, now),
+            t::enable_robot::TYPE => self.enable_robot(cmd_id, h, msg, now, fx),
+            t::group_reset::TYPE => self.group_reset(cmd_id, h, now, fx),
+            t::read_actual_position::TYPE => self.read_actual_position(cmd_id, h, msg, now),
+            t::move_axes_absolute::TYPE => self.move_axes_absolute(cmd_id, h, msg, now, fx),
+            t::change_speed_override::TYPE => self.change_speed_override(cmd_id, h, msg, now, fx),
+            _ => self.respond(cmd_id, h, state::ERROR, code::NOT_IMPLEMENTED, now, |_| {}),
+        }
+    }
+
+    /// A parameter update (FragmentAction Clear) of a live Enable-type command.
+    fn on_parameter_update(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        msg: &[u8],
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        let Some(i) = self.live.iter().position(|l| l.cmd_id == cmd_id) else {
+            // An update of a command that already ended: nothing runs under this CmdID.
+            self.respond(
+                cmd_id,
+                h,
+                state::ERROR,
+                code::TRANSITION_NOT_POSSIBLE,
+                now,
+                |_| {},
+            );
+            return;
+        };
+        self.live[i].par_seq = h.par_seq;
+        match self.live[i].kind {
+            LiveKind::Messages { .. } => self.update_read_messages(i, msg, now),
+            LiveKind::Configuration => self.update_exchange_configuration(i, msg, now),
+            LiveKind::Enable { .. } => self.update_enable_robot(i, msg, now, fx),
+            // Execute-type commands take no updates; the new ParSeq is simply acknowledged
+            // with the next response.
+            LiveKind::Job { .. } => {}
+        }
+    }
+
+    /// Queues a response to the command `cmd_id` (header `h`) and ends it if `st` is final.
+    pub(crate) fn respond(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        st: u8,
+        code: u16,
+        now: Now,
+        fill: impl FnOnce(&mut [u8]),
+    ) {
+        let header = ResponseHeader {
+            par_seq: h.par_seq,
+            state: st,
+            severity: severity_of(code),
+            code,
+        };
+        self.responses
+            .push(cmd_id, header, Server::response_len(h.command_type), fill);
+        if state::is_final(st) {
+            self.acr.release(cmd_id);
+            self.live.retain(|l| l.cmd_id != cmd_id);
+            if st == state::ERROR {
+                self.raise(
+                    now,
+                    MessageType::Command,
+                    severity::ERROR,
+                    code,
+                    describe(code),
+                );
+            }
+        }
+    }
+
+    /// The header the next response of live command `i` carries.
+    pub(crate) fn live_header(&self, i: usize) -> CommandHeader {
+        let l = &self.live[i];
+        CommandHeader {
+            command_type: l.command_type,
+            execution_mode: 0,
+            par_seq: l.par_seq,
+            priority: 0,
+        }
+    }
+
+    /// Registers a command that stays live after its first response.
+    pub(crate) fn keep_live(&mut self, cmd_id: u16, h: CommandHeader, kind: LiveKind) -> usize {
+        self.live.push(LiveCommand {
+            cmd_id,
+            command_type: h.command_type,
+            par_seq: h.par_seq,
+            kind,
+        });
+        self.live.len() - 1
+    }
+}

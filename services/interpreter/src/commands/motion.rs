@@ -1,0 +1,317 @@
+//! Commands executed by the planner: MoveAxesAbsolute, ChangeSpeedOverride (and GroupReset's
+//! planner part), with their job updates and progress.
+
+use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind};
+use shared_types::srci::message::{CommandHeader, Percent, code, execution_mode, state};
+use shared_types::srci::payload::{PayloadReader, PayloadWriter};
+use shared_types::srci::tables::{
+    change_speed_override as cso, group_reset as gr, move_axes_absolute as maa,
+};
+
+use super::LiveKind;
+use super::robot::CURRENT_INDEX;
+use crate::motion_link::JobUpdate;
+use crate::server::{Effects, Now, Server};
+
+/// Rates used when a move leaves them at the default (0xFFFF), percent. They become
+/// writable with WriteRobotDefaultDynamics.
+const DEFAULT_VELOCITY_RATE: f64 = 50.0;
+const DEFAULT_ACCELERATION_RATE: f64 = 50.0;
+const DEFAULT_JERK_RATE: f64 = 100.0;
+/// "0 %: use internal minimal velocity".
+const MIN_RATE: f64 = 1.0;
+/// Progress refreshes of one move are at most this often.
+const PROGRESS_INTERVAL_MS: u64 = 100;
+
+/// A percentage rate as a fraction of the robot's limits, or the code for an invalid value.
+fn rate(wire: u16, default: f64, invalid: u16) -> Result<f64, u16> {
+    match Percent::from_wire(wire) {
+        Percent::Default => Ok(default / 100.0),
+        Percent::Value(p) if p <= 100.0 => Ok(p.max(MIN_RATE) / 100.0),
+        Percent::Value(_) => Err(invalid),
+    }
+}
+
+/// Checks a MoveAxesAbsolute request and turns it into a planner command.
+fn decode_move_axes(msg: &[u8], h: CommandHeader) -> Result<MotionCommand, u16> {
+    let r = PayloadReader::new(msg);
+    let velocity = rate(
+        r.u16(maa::request::VELOCITY_RATE),
+        DEFAULT_VELOCITY_RATE,
+        code::INVALID_VELOCITY_RATE,
+    )?;
+    let acceleration = rate(
+        r.u16(maa::request::ACCELERATION_RATE),
+        DEFAULT_ACCELERATION_RATE,
+        code::INVALID_ACCELERATION_RATE,
+    )?;
+    if r.u16(maa::request::DECELERATION_RATE) != 0xFFFF {
+        return Err(code::DECELERATION_RATE_NOT_SUPPORTED);
+    }
+    let jerk = rate(
+        r.u16(maa::request::JERK_RATE),
+        DEFAULT_JERK_RATE,
+        code::INVALID_JERK_RATE,
+    )?;
+    let tool = r.u8(maa::request::TOOL_NO);
+    if tool != 0 && tool != CURRENT_INDEX {
+        return Err(code::TOOL_NOT_EXISTING);
+    }
+    match r.u8(maa::request::BLENDING_MODE) {
+        0 => {}
+        2 | 3 | 4 | 10 | 11 | 12 => return Err(code::BLENDING_MODE_NOT_SUPPORTED),
+        _ => return Err(code::INVALID_BLENDING_MODE),
+    }
+    let fields = [
+        maa::request::JOINT_POSITION_J1,
+        maa::request::JOINT_POSITION_J2,
+        maa::request::JOINT_POSITION_J3,
+        maa::request::JOINT_POSITION_J4,
+        maa::request::JOINT_POSITION_J5,
+        maa::request::JOINT_POSITION_J6,
+    ];
+    let mut joints = [0.0; AXES];
+    for (q, f) in joints.iter_mut().zip(fields) {
+        let deg = r.f32(f);
+        if !deg.is_finite() {
+            return Err(code::INVALID_JOINT_POSITION);
+        }
+        *q = f64::from(deg).to_radians();
+    }
+    let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+    c.aborting = h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY;
+    c.joints_rad = joints;
+    c.velocity_scale = velocity;
+    c.acceleration_scale = acceleration;
+    c.jerk_scale = jerk;
+    c.duration_s = f64::from(r.u16(maa::request::TIME)) / 1000.0;
+    Ok(c)
+}
+
+impl Server {
+    pub(crate) fn move_axes_absolute(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        msg: &[u8],
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        let checked = if self.error_pending {
+            Err(code::DISABLED_DUE_TO_ERROR)
+        } else if !self.drives_enabled() {
+            Err(code::ROBOT_DISABLED)
+        } else {
+            decode_move_axes(msg, h)
+        };
+        match checked {
+            Ok(command) => self.submit_job(cmd_id, h, command, now, fx),
+            Err(c) => self.respond(cmd_id, h, state::ERROR, c, now, |_| {}),
+        }
+    }
+
+    pub(crate) fn change_speed_override(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        msg: &[u8],
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        let wire = PayloadReader::new(msg).u16(cso::request::OVERRIDE);
+        let percent = match Percent::from_wire(wire) {
+            Percent::Value(p) if p <= 100.0 => p,
+            _ => {
+                self.respond(cmd_id, h, state::ERROR, code::INVALID_OVERRIDE, now, |_| {});
+                return;
+            }
+        };
+        self.override_percent = percent;
+        let mut c = MotionCommand::new(MotionCommandKind::Override);
+        c.override_fraction = percent / 100.0;
+        self.submit_job(cmd_id, h, c, now, fx);
+    }
+
+    /// Hands `command` to the planner as a job whose events answer command `cmd_id`.
+    pub(crate) fn submit_job(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        command: MotionCommand,
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        match self.motion.submit(
+            command,
+            Some((cmd_id, h.par_seq, h.command_type)),
+            now.mono_ms,
+            &mut fx.motion,
+        ) {
+            Some(job) => {
+                self.keep_live(
+                    cmd_id,
+                    h,
+                    LiveKind::Job {
+                        job,
+                        progress: 0,
+                        sent_ms: now.mono_ms,
+                    },
+                );
+            }
+            None => self.respond(cmd_id, h, state::ERROR, code::INTERNAL_ERROR, now, |_| {}),
+        }
+    }
+
+    /// A planner event (or a lost planner) changed the state of a job.
+    pub(crate) fn on_job_update(&mut self, u: JobUpdate, now: Now, _fx: &mut Effects) {
+        let Some(i) = self.live.iter().position(|l| l.cmd_id == u.cmd_id) else {
+            return;
+        };
+        let h = self.live_header(i);
+        let progress = if u.state == state::DONE {
+            10_000
+        } else {
+            match self.live[i].kind {
+                LiveKind::Job { progress, .. } => progress,
+                _ => 0,
+            }
+        };
+        if u.command_type == gr::TYPE && u.state == state::DONE {
+            self.error_pending = false;
+        }
+        let is_move = u.command_type == maa::TYPE;
+        self.respond(u.cmd_id, h, u.state, u.code, now, |b| {
+            if is_move {
+                PayloadWriter::new(b).set_u16(maa::response::PROGRESS, progress);
+            }
+        });
+    }
+
+    /// Sends the progress of the running move, at most every 100 ms.
+    pub(crate) fn refresh_motion_progress(&mut self, now: Now) {
+        let Some(status) = self.status else {
+            return;
+        };
+        if status.active_job == 0 {
+            return;
+        }
+        let Some(i) = self
+            .live
+            .iter()
+            .position(|l| matches!(l.kind, LiveKind::Job { job, .. } if job == status.active_job))
+        else {
+            return;
+        };
+        let LiveKind::Job {
+            job,
+            progress,
+            sent_ms,
+        } = self.live[i].kind
+        else {
+            return;
+        };
+        // Clamped to 0..=100 %, so the product fits a u16.
+        let now_progress = (status.active_progress.clamp(0.0, 100.0) * 100.0) as u16;
+        if now_progress == progress || now.mono_ms.saturating_sub(sent_ms) < PROGRESS_INTERVAL_MS {
+            return;
+        }
+        self.live[i].kind = LiveKind::Job {
+            job,
+            progress: now_progress,
+            sent_ms: now.mono_ms,
+        };
+        let cmd_id = self.live[i].cmd_id;
+        let h = self.live_header(i);
+        if self.live[i].command_type == maa::TYPE {
+            self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
+                PayloadWriter::new(b).set_u16(maa::response::PROGRESS, now_progress);
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn request(edit: impl FnOnce(&mut PayloadWriter)) -> Vec<u8> {
+        let mut b = vec![0u8; maa::request::LEN];
+        let mut w = PayloadWriter::new(&mut b);
+        w.set_u16(maa::request::VELOCITY_RATE, 0xFFFF);
+        w.set_u16(maa::request::ACCELERATION_RATE, 0xFFFF);
+        w.set_u16(maa::request::DECELERATION_RATE, 0xFFFF);
+        w.set_u16(maa::request::JERK_RATE, 0xFFFF);
+        w.set_f32(maa::request::JOINT_POSITION_J2, 90.0);
+        edit(&mut w);
+        b
+    }
+
+    fn header(mode: u8) -> CommandHeader {
+        CommandHeader {
+            command_type: maa::TYPE,
+            execution_mode: mode,
+            par_seq: 1,
+            priority: 3,
+        }
+    }
+
+    #[test]
+    fn decodes_defaults_and_degrees() {
+        let c = decode_move_axes(&request(|_| {}), header(0)).unwrap();
+        assert!((c.joints_rad[1] - core::f64::consts::FRAC_PI_2).abs() < 1e-6);
+        assert_eq!(c.velocity_scale, 0.5);
+        assert!(!c.aborting);
+        assert!(
+            decode_move_axes(&request(|_| {}), header(1))
+                .unwrap()
+                .aborting
+        );
+    }
+
+    #[test]
+    fn rejects_out_of_range_parameters_with_their_codes() {
+        type Edit = fn(&mut PayloadWriter);
+        let cases: [(Edit, u16); 6] = [
+            (
+                |w| w.set_u16(maa::request::VELOCITY_RATE, 10_001),
+                code::INVALID_VELOCITY_RATE,
+            ),
+            (
+                |w| w.set_u16(maa::request::ACCELERATION_RATE, 20_000),
+                code::INVALID_ACCELERATION_RATE,
+            ),
+            (
+                |w| w.set_u16(maa::request::DECELERATION_RATE, 5_000),
+                code::DECELERATION_RATE_NOT_SUPPORTED,
+            ),
+            (
+                |w| w.set_u8(maa::request::BLENDING_MODE, 3),
+                code::BLENDING_MODE_NOT_SUPPORTED,
+            ),
+            (
+                |w| w.set_u8(maa::request::BLENDING_MODE, 7),
+                code::INVALID_BLENDING_MODE,
+            ),
+            (
+                |w| w.set_f32(maa::request::JOINT_POSITION_J1, f32::NAN),
+                code::INVALID_JOINT_POSITION,
+            ),
+        ];
+        for (edit, expected) in cases {
+            assert_eq!(
+                decode_move_axes(&request(edit), header(0)).unwrap_err(),
+                expected
+            );
+        }
+    }
+
+    #[test]
+    fn zero_rate_means_minimal_velocity() {
+        let c = decode_move_axes(
+            &request(|w| w.set_u16(maa::request::VELOCITY_RATE, 0)),
+            header(0),
+        )
+        .unwrap();
+        assert_eq!(c.velocity_scale, 0.01);
+    }
+}

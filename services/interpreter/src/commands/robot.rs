@@ -1,0 +1,235 @@
+//! Commands about the robot as a whole: EnableRobot, GroupReset, ReadActualPosition.
+
+use shared_types::ipc::{DriveState, MotionCommand, MotionCommandKind};
+use shared_types::srci::message::{CommandHeader, code, state};
+use shared_types::srci::payload::{PayloadReader, PayloadWriter};
+use shared_types::srci::tables::{enable_robot as er, read_actual_position as rap};
+
+use super::LiveKind;
+use crate::server::{Effects, Now, Server};
+
+/// ToolNo/FrameNo -1 ("currently used") on the wire.
+pub(crate) const CURRENT_INDEX: u8 = 0xFF;
+
+impl Server {
+    pub(crate) fn enable_robot(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        msg: &[u8],
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        if self
+            .live
+            .iter()
+            .any(|l| matches!(l.kind, LiveKind::Enable { .. }))
+        {
+            self.respond(
+                cmd_id,
+                h,
+                state::ERROR,
+                code::ONLY_ONE_INSTANCE,
+                now,
+                |_| {},
+            );
+            return;
+        }
+        let i = self.keep_live(
+            cmd_id,
+            h,
+            LiveKind::Enable {
+                want: false,
+                reported: None,
+                since_ms: now.mono_ms,
+                reached: false,
+            },
+        );
+        self.update_enable_robot(i, msg, now, fx);
+    }
+
+    pub(crate) fn update_enable_robot(&mut self, i: usize, msg: &[u8], now: Now, fx: &mut Effects) {
+        let r = PayloadReader::new(msg);
+        let cmd_id = self.live[i].cmd_id;
+        let h = self.live_header(i);
+        let want = r.bit(er::request::ENABLE);
+        let step_mode = r.u8(er::request::STEP_MODE);
+        let error = match step_mode {
+            0 => None,
+            1 | 2 => Some(code::STEP_MODE_NOT_SUPPORTED),
+            _ => Some(code::INVALID_STEP_MODE),
+        }
+        .or((want && self.error_pending).then_some(code::DISABLED_DUE_TO_ERROR));
+        if let Some(c) = error {
+            self.respond(cmd_id, h, state::ERROR, c, now, |_| {});
+            return;
+        }
+        self.live[i].kind = LiveKind::Enable {
+            want,
+            reported: None,
+            since_ms: now.mono_ms,
+            reached: false,
+        };
+        // Power first, then enable: the drives sequence the two with their own delays.
+        self.servo_control.seq += 1;
+        self.servo_control.power = want;
+        self.servo_control.enable = want;
+        fx.servo = Some(self.servo_control);
+        self.progress_enable(now, fx);
+    }
+
+    /// Reports EnableRobot progress: ACTIVE at once (parameters accepted), ACTIVE with Enabled
+    /// when the drives are enabled (and without when they drop out), DONE once switched off,
+    /// ERROR if the drives do not enable in time.
+    pub(crate) fn progress_enable(&mut self, now: Now, _fx: &mut Effects) {
+        let Some(i) = self
+            .live
+            .iter()
+            .position(|l| matches!(l.kind, LiveKind::Enable { .. }))
+        else {
+            return;
+        };
+        let LiveKind::Enable {
+            want,
+            reported,
+            since_ms,
+            reached,
+        } = self.live[i].kind
+        else {
+            return;
+        };
+        let drive = self.feedback.map(|f| DriveState::from_wire(f.state));
+        let enabled = drive.is_some_and(DriveState::is_enabled);
+        let cmd_id = self.live[i].cmd_id;
+        let h = self.live_header(i);
+        if !want {
+            if reported.is_none() {
+                self.set_enable_reported(i, enabled);
+                self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
+                    PayloadWriter::new(b).set_bit(er::response::ENABLED, enabled);
+                });
+            }
+            if matches!(drive, Some(DriveState::Off)) {
+                self.respond(cmd_id, h, state::DONE, 0, now, |_| {});
+            }
+            return;
+        }
+        if !enabled
+            && !reached
+            && now.mono_ms.saturating_sub(since_ms) > self.settings.enable_timeout_ms
+        {
+            self.respond(cmd_id, h, state::ERROR, code::INTERNAL_ERROR, now, |_| {});
+            return;
+        }
+        if reported != Some(enabled) {
+            self.set_enable_reported(i, enabled);
+            self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
+                PayloadWriter::new(b).set_bit(er::response::ENABLED, enabled);
+            });
+        }
+    }
+
+    fn set_enable_reported(&mut self, i: usize, value: bool) {
+        if let LiveKind::Enable {
+            reported, reached, ..
+        } = &mut self.live[i].kind
+        {
+            *reported = Some(value);
+            *reached |= value;
+        }
+    }
+
+    pub(crate) fn group_reset(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        self.messages.reset();
+        self.servo_control.seq += 1;
+        self.servo_control.fault_reset += 1;
+        fx.servo = Some(self.servo_control);
+        // DONE comes from the planner once it has cleared its error: then every service is
+        // back in a consistent state.
+        self.submit_job(
+            cmd_id,
+            h,
+            MotionCommand::new(MotionCommandKind::Reset),
+            now,
+            fx,
+        );
+    }
+
+    pub(crate) fn read_actual_position(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        msg: &[u8],
+        now: Now,
+    ) {
+        let r = PayloadReader::new(msg);
+        let tool = r.u8(rap::request::TOOL_NO);
+        let frame = r.u8(rap::request::FRAME_NO);
+        if tool != 0 && tool != CURRENT_INDEX {
+            self.respond(
+                cmd_id,
+                h,
+                state::ERROR,
+                code::TOOL_NOT_EXISTING,
+                now,
+                |_| {},
+            );
+            return;
+        }
+        if frame != 0 && frame != CURRENT_INDEX {
+            self.respond(
+                cmd_id,
+                h,
+                state::ERROR,
+                code::FRAME_NOT_EXISTING,
+                now,
+                |_| {},
+            );
+            return;
+        }
+        let (Some(feedback), Some(status)) = (self.feedback, self.status) else {
+            // Without drive feedback and planner status there is no position to report.
+            self.respond(cmd_id, h, state::ERROR, code::MOTION_ERROR, now, |_| {});
+            return;
+        };
+        self.respond(cmd_id, h, state::DONE, 0, now, |b| {
+            let mut w = PayloadWriter::new(b);
+            w.set_u8(rap::response::TOOL_NO_RETURN, 0);
+            w.set_u8(rap::response::FRAME_NO_RETURN, 0);
+            let p = status.flange_pose;
+            let cart = [
+                rap::response::ACTUAL_CARTESIAN_POSITION_X,
+                rap::response::ACTUAL_CARTESIAN_POSITION_Y,
+                rap::response::ACTUAL_CARTESIAN_POSITION_Z,
+                rap::response::ACTUAL_CARTESIAN_POSITION_RX,
+                rap::response::ACTUAL_CARTESIAN_POSITION_RY,
+                rap::response::ACTUAL_CARTESIAN_POSITION_RZ,
+            ];
+            for (k, f) in cart.into_iter().enumerate() {
+                let v = if k < 3 {
+                    p[k] * 1000.0
+                } else {
+                    p[k].to_degrees()
+                };
+                w.set_f32(f, v as f32);
+            }
+            let joints = [
+                rap::response::ACTUAL_JOINT_POSITION_J1,
+                rap::response::ACTUAL_JOINT_POSITION_J2,
+                rap::response::ACTUAL_JOINT_POSITION_J3,
+                rap::response::ACTUAL_JOINT_POSITION_J4,
+                rap::response::ACTUAL_JOINT_POSITION_J5,
+                rap::response::ACTUAL_JOINT_POSITION_J6,
+            ];
+            for (f, q) in joints.into_iter().zip(feedback.q) {
+                w.set_f32(f, q.to_degrees() as f32);
+            }
+        });
+    }
+}

@@ -1,0 +1,698 @@
+//! The SRCI server core: one call per PLC telegram, pure (no I/O, no clock).
+//!
+//! It runs the robot-interface state machine (254 → INITIALIZE → 255, RESET, the telegram
+//! error states), supervises the PLC lifesign, acknowledges sequences exactly once, feeds
+//! fragments into the Active Command Register, starts commands and answers with responses on
+//! every state change. What it wants done outside (motion commands, drive power) it returns
+//! in [`Effects`]; what happens outside reaches it through `on_motion_status` and
+//! `on_servo_feedback`.
+
+use shared_types::config::JointLimitsRad;
+use shared_types::ipc::{
+    DriveState, LinkEvent, MotionCommand, MotionCommandKind, MotionStatus, ServoControl,
+    ServoFeedback,
+};
+use shared_types::srci::message::{ResponseHeader, code, severity, state};
+use shared_types::srci::tables;
+use shared_types::srci::telegram::{
+    Control, PLC_HEADER_LEN, PlcHeader, ROBOT_HEADER_LEN, RobotHeader, Sequence, SequenceWriter,
+    SrciVersion, TELEGRAM_NUMBER_TWO_SEQUENCES, next_lifesign, sequence_areas, status_bit,
+    telegram_state as ts,
+};
+
+use crate::acr::{Acr, FragmentOutcome, MESSAGE_CAPACITY};
+use crate::commands::LiveCommand;
+use crate::messages::{MessageLog, MessageType};
+use crate::motion_link::{JobUpdate, MotionLink, PlannerFault};
+use crate::responses::ResponseQueue;
+
+/// Settings of the server core, taken from the configuration at start-up.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    pub length_plc_to_rob: usize,
+    pub length_rob_to_plc: usize,
+    pub acr_length: usize,
+    pub lifesign_timeout_ms: u16,
+    pub message_capacity: usize,
+    pub initial_override_percent: f64,
+    pub planner_timeout_ms: u64,
+    pub manufacturer: String,
+    pub serial_number: String,
+    pub robot_name: String,
+    pub limits: JointLimitsRad,
+    /// Interpolation period in ms, reported as InterpreterCycleTime.
+    pub cycle_time_ms: u16,
+    /// Time EnableRobot may take before it ends with an error.
+    pub enable_timeout_ms: u64,
+}
+
+/// The time of a call: monotonic for supervision, wall clock for message stamps.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Now {
+    pub mono_ms: u64,
+    pub unix_ms: u64,
+}
+
+/// What the server wants done after a call.
+#[derive(Debug)]
+pub struct Effects {
+    /// Motion commands to publish, in order.
+    pub motion: Vec<MotionCommand>,
+    /// A new drive power request to publish.
+    pub servo: Option<ServoControl>,
+}
+
+impl Effects {
+    /// Pre-allocated, so that steady-state calls do not allocate.
+    pub fn new() -> Self {
+        Self {
+            motion: Vec::with_capacity(128),
+            servo: None,
+        }
+    }
+
+    pub fn clear(&mut self) {
+        self.motion.clear();
+        self.servo = None;
+    }
+}
+
+impl Default for Effects {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Values fixed at INITIALIZE that every later telegram must repeat.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Session {
+    length_plc_to_rob: u16,
+    length_rob_to_plc: u16,
+    telegram_number_plc_to_rob: u16,
+    telegram_number_rob_to_plc: u16,
+    axes_group: u8,
+}
+
+/// The SRCI server of one axes group.
+#[derive(Debug)]
+pub struct Server {
+    pub(crate) settings: Settings,
+    telegram_state: u8,
+    session: Option<Session>,
+    robot_lifesign: u8,
+    plc_lifesign: Option<u8>,
+    lifesign_changed_ms: u64,
+    pub(crate) lifesign_timeout_ms: u16,
+    /// Last processed SEQ per sequence (0 = none yet).
+    last_seq: [u16; 2],
+    /// The sequence areas of the last answer, re-sent while the PLC repeats its SEQ.
+    reply_areas: [[u8; 256]; 2],
+    pub(crate) invalid_frames: u64,
+    pub(crate) acr: Acr,
+    pub(crate) responses: ResponseQueue,
+    pub(crate) messages: MessageLog,
+    pub(crate) live: Vec<LiveCommand>,
+    pub(crate) motion: MotionLink,
+    pub(crate) updates: Vec<JobUpdate>,
+    pub(crate) servo_control: ServoControl,
+    pub(crate) feedback: Option<ServoFeedback>,
+    pub(crate) status: Option<MotionStatus>,
+    pub(crate) override_percent: f64,
+    pub(crate) error_pending: bool,
+    last_drive_fault: u16,
+    last_planner_error: u16,
+}
+
+impl Server {
+    /// A server in READY_FOR_INITIALIZATION; `issuer` identifies this process instance.
+    pub fn new(settings: Settings, issuer: u64) -> Self {
+        let acr_length = settings.acr_length;
+        Self {
+            telegram_state: ts::READY_FOR_INITIALIZATION,
+            session: None,
+            robot_lifesign: 0,
+            plc_lifesign: None,
+            lifesign_changed_ms: 0,
+            lifesign_timeout_ms: settings.lifesign_timeout_ms,
+            last_seq: [0; 2],
+            reply_areas: [[0; 256]; 2],
+            invalid_frames: 0,
+            acr: Acr::new(acr_length),
+            responses: ResponseQueue::new(acr_length * 4 + 16),
+            messages: MessageLog::new(settings.message_capacity),
+            live: Vec::with_capacity(acr_length),
+            motion: MotionLink::new(issuer, acr_length + 8, settings.planner_timeout_ms),
+            updates: Vec::with_capacity(acr_length * 2 + 8),
+            servo_control: ServoControl::default(),
+            feedback: None,
+            status: None,
+            override_percent: settings.initial_override_percent,
+            error_pending: false,
+            last_drive_fault: 0,
+            last_planner_error: 0,
+            settings,
+        }
+    }
+
+    /// The current TelegramState.
+    pub fn telegram_state(&self) -> u8 {
+        self.telegram_state
+    }
+
+    /// Telegrams dropped because header and footer lifesign differed.
+    pub fn invalid_frames(&self) -> u64 {
+        self.invalid_frames
+    }
+
+    /// Handles one PLC→robot telegram and writes the robot→PLC answer into `out`; returns
+    /// the number of bytes of the answer.
+    pub fn on_telegram(&mut self, now: Now, rx: &[u8], out: &mut [u8], fx: &mut Effects) -> usize {
+        let len = self.settings.length_rob_to_plc.min(out.len());
+        let out = &mut out[..len];
+        out.fill(0);
+        let consistent =
+            rx.len() == self.settings.length_plc_to_rob && PlcHeader::is_consistent(rx);
+        match PlcHeader::decode(rx) {
+            Ok(header) if consistent => {
+                self.track_lifesign(header.lifesign, now);
+                self.handle_control(&header, now, fx);
+                if self.telegram_state == ts::INITIALIZED {
+                    self.check_lifesign(now, fx);
+                }
+                if self.telegram_state == ts::INITIALIZED {
+                    self.exchange_sequences(rx, now, out, fx);
+                }
+            }
+            // A torn or short frame is not interpreted; the PLC gets the last sequences again.
+            _ => {
+                self.invalid_frames += 1;
+                if self.telegram_state == ts::INITIALIZED {
+                    self.copy_reply_areas(out);
+                }
+            }
+        }
+        self.write_header(out);
+        len
+    }
+
+    /// The fieldbus link changed. A lost or replaced peer ends the session: motion stops and
+    /// the next PLC must reset and initialize again.
+    pub fn on_link(&mut self, now: Now, event: LinkEvent, fx: &mut Effects) {
+        if matches!(event, LinkEvent::Connected | LinkEvent::Disconnected)
+            && self.telegram_state == ts::INITIALIZED
+        {
+            self.fail_session(
+                ts::CONNECTION_LOST,
+                now,
+                fx,
+                "fieldbus connection to the PLC lost",
+            );
+        }
+    }
+
+    /// Periodic work between telegrams (call every few ms): lifesign supervision, command
+    /// re-sending, planner supervision, EnableRobot progress.
+    pub fn poll(&mut self, now: Now, fx: &mut Effects) {
+        if self.telegram_state == ts::INITIALIZED {
+            self.check_lifesign(now, fx);
+        }
+        let fault = self.motion.poll(
+            now.mono_ms,
+            code::MOTION_ERROR,
+            &mut fx.motion,
+            &mut self.updates,
+        );
+        if let Some(f) = fault {
+            self.on_planner_fault(f, now);
+        }
+        self.apply_job_updates(now, fx);
+        self.progress_enable(now, fx);
+        self.refresh_messages();
+    }
+
+    /// A new planner status.
+    pub fn on_motion_status(&mut self, now: Now, status: &MotionStatus, fx: &mut Effects) {
+        let fault =
+            self.motion
+                .on_status(status, now.mono_ms, code::MOTION_ERROR, &mut self.updates);
+        if let Some(f) = fault {
+            self.on_planner_fault(f, now);
+        }
+        if status.error_code != 0 && status.error_code != self.last_planner_error {
+            self.error_pending = true;
+            self.raise(
+                now,
+                MessageType::Arm,
+                severity::ERROR,
+                status.error_code,
+                "motion stopped by a planner error",
+            );
+        }
+        self.last_planner_error = status.error_code;
+        self.status = Some(*status);
+        self.apply_job_updates(now, fx);
+        self.refresh_motion_progress(now);
+    }
+
+    /// A new drive feedback.
+    pub fn on_servo_feedback(&mut self, now: Now, feedback: &ServoFeedback, fx: &mut Effects) {
+        if feedback.fault_code != 0 && feedback.fault_code != self.last_drive_fault {
+            self.error_pending = true;
+            self.raise(
+                now,
+                MessageType::Arm,
+                severity::ERROR,
+                feedback.fault_code,
+                "drive fault: the arm was stopped",
+            );
+        }
+        self.last_drive_fault = feedback.fault_code;
+        self.feedback = Some(*feedback);
+        self.progress_enable(now, fx);
+    }
+
+    fn on_planner_fault(&mut self, fault: PlannerFault, now: Now) {
+        self.error_pending = true;
+        let text = match fault {
+            PlannerFault::Restarted => {
+                "motion planner restarted: its commands ended with an error, GroupReset required"
+            }
+            PlannerFault::Silent => {
+                "motion planner not responding: its commands ended with an error, GroupReset required"
+            }
+        };
+        self.raise(
+            now,
+            MessageType::Controller,
+            severity::ERROR,
+            code::MOTION_ERROR,
+            text,
+        );
+    }
+
+    fn track_lifesign(&mut self, lifesign: u8, now: Now) {
+        if self.plc_lifesign != Some(lifesign) {
+            self.plc_lifesign = Some(lifesign);
+            self.lifesign_changed_ms = now.mono_ms;
+        }
+    }
+
+    fn check_lifesign(&mut self, now: Now, fx: &mut Effects) {
+        let frozen = now.mono_ms.saturating_sub(self.lifesign_changed_ms);
+        if frozen > u64::from(self.lifesign_timeout_ms) {
+            self.fail_session(
+                ts::LIFESIGN_TIMEOUT,
+                now,
+                fx,
+                "PLC lifesign timeout: motion stopped",
+            );
+        }
+    }
+
+    /// Leaves INITIALIZED for an error state: motion halts, commands of the session end.
+    fn fail_session(&mut self, error_state: u8, now: Now, fx: &mut Effects, text: &str) {
+        self.telegram_state = error_state;
+        self.halt_session(fx);
+        self.raise(
+            now,
+            MessageType::Interface,
+            severity::ERROR,
+            0x8000 | u16::from(error_state),
+            text,
+        );
+    }
+
+    /// Stops motion and forgets everything of the SRCI session (ACR, responses, sequences).
+    fn halt_session(&mut self, fx: &mut Effects) {
+        // Without room for Halt the queue is full of commands the planner has not taken yet;
+        // the link resends them, and the next poll retries the halt through `live` being empty.
+        let _ = self.motion.submit(
+            MotionCommand::new(MotionCommandKind::Halt),
+            None,
+            0,
+            &mut fx.motion,
+        );
+        self.motion.forget_jobs();
+        self.acr.clear();
+        self.responses.clear();
+        self.live.clear();
+        self.last_seq = [0; 2];
+        self.reply_areas = [[0; 256]; 2];
+        self.session = None;
+        self.lifesign_timeout_ms = self.settings.lifesign_timeout_ms;
+    }
+
+    fn handle_control(&mut self, h: &PlcHeader, now: Now, fx: &mut Effects) {
+        match h.control {
+            Control::Reset | Control::ClientError
+                if self.telegram_state != ts::READY_FOR_INITIALIZATION =>
+            {
+                if self.telegram_state == ts::INITIALIZED {
+                    self.halt_session(fx);
+                }
+                self.telegram_state = ts::READY_FOR_INITIALIZATION;
+                self.raise(
+                    now,
+                    MessageType::Interface,
+                    severity::INFO,
+                    code::SERVER_STATE_RESET,
+                    "interface reset by the PLC",
+                );
+            }
+            Control::AckError if ts::is_error(self.telegram_state) => {
+                self.telegram_state = ts::READY_FOR_INITIALIZATION;
+            }
+            Control::Initialize if self.telegram_state == ts::READY_FOR_INITIALIZATION => {
+                self.telegram_state = self.initialize(h);
+                if self.telegram_state == ts::INITIALIZED {
+                    self.lifesign_changed_ms = now.mono_ms;
+                } else {
+                    let state = self.telegram_state;
+                    self.raise(
+                        now,
+                        MessageType::Interface,
+                        severity::ERROR,
+                        0x8000 | u16::from(state),
+                        "initialization refused: telegram header does not match the robot interface",
+                    );
+                }
+            }
+            _ if self.telegram_state == ts::INITIALIZED => {
+                if let Some(error) = self.session_violation(h) {
+                    self.fail_session(
+                        error,
+                        now,
+                        fx,
+                        "telegram header changed after initialization",
+                    );
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Checks an INITIALIZE header; returns the new TelegramState.
+    fn initialize(&mut self, h: &PlcHeader) -> u8 {
+        if h.version.major != SrciVersion::CURRENT.major {
+            return ts::MAJOR_VERSION;
+        }
+        if usize::from(h.length_plc_to_rob) != self.settings.length_plc_to_rob
+            || usize::from(h.length_rob_to_plc) != self.settings.length_rob_to_plc
+        {
+            return ts::LENGTH_MISMATCH;
+        }
+        // A single arm answers to AxesGroupID 0 (what clients send) and 1 (what the spec asks).
+        if h.axes_group > 1 {
+            return ts::INVALID_AXES_GROUP;
+        }
+        let two_p2r = h.telegram_number_plc_to_rob & TELEGRAM_NUMBER_TWO_SEQUENCES != 0;
+        let two_r2p = h.telegram_number_rob_to_plc & TELEGRAM_NUMBER_TWO_SEQUENCES != 0;
+        if two_p2r != two_r2p {
+            return ts::TELEGRAM_NUMBER_INVALID;
+        }
+        // Optional cyclic blocks are not offered yet (RCSupportedFunctions says so).
+        if (h.telegram_number_plc_to_rob | h.telegram_number_rob_to_plc)
+            & !TELEGRAM_NUMBER_TWO_SEQUENCES
+            != 0
+        {
+            return ts::TELEGRAM_NUMBER_UNSUPPORTED;
+        }
+        self.session = Some(Session {
+            length_plc_to_rob: h.length_plc_to_rob,
+            length_rob_to_plc: h.length_rob_to_plc,
+            telegram_number_plc_to_rob: h.telegram_number_plc_to_rob,
+            telegram_number_rob_to_plc: h.telegram_number_rob_to_plc,
+            axes_group: h.axes_group,
+        });
+        self.last_seq = [0; 2];
+        self.reply_areas = [[0; 256]; 2];
+        ts::INITIALIZED
+    }
+
+    fn session_violation(&self, h: &PlcHeader) -> Option<u8> {
+        let s = self.session?;
+        if h.length_plc_to_rob != s.length_plc_to_rob || h.length_rob_to_plc != s.length_rob_to_plc
+        {
+            Some(ts::LENGTH_MISMATCH)
+        } else if h.axes_group != s.axes_group {
+            Some(ts::INVALID_AXES_GROUP)
+        } else if h.telegram_number_plc_to_rob != s.telegram_number_plc_to_rob
+            || h.telegram_number_rob_to_plc != s.telegram_number_rob_to_plc
+        {
+            Some(ts::TELEGRAM_NUMBER_CHANGED)
+        } else if h.version.major != SrciVersion::CURRENT.major {
+            Some(ts::MAJOR_VERSION)
+        } else {
+            None
+        }
+    }
+
+    fn two_sequences(&self) -> bool {
+        self.session
+            .is_some_and(|s| s.telegram_number_plc_to_rob & TELEGRAM_NUMBER_TWO_SEQUENCES != 0)
+    }
+
+    /// Processes new sequences exactly once and writes the answering sequences.
+    fn exchange_sequences(&mut self, rx: &[u8], now: Now, out: &mut [u8], fx: &mut Effects) {
+        let two = self.two_sequences();
+        let (in_areas, n) = sequence_areas(rx.len(), PLC_HEADER_LEN, 0, two);
+        let (out_areas, _) = sequence_areas(out.len(), ROBOT_HEADER_LEN, 0, two);
+        let mut seqs = [0u16; 2];
+        for i in 0..n {
+            let (start, len) = in_areas[i];
+            seqs[i] = match Sequence::decode(&rx[start..start + len]) {
+                Ok(seq) => seq.seq_ack,
+                Err(_) => 0,
+            };
+        }
+        // The older of two new sequences goes first (numbers wrap from 254 to 1).
+        let order: [usize; 2] = if n == 2 && newer(seqs[0], seqs[1]) {
+            [1, 0]
+        } else {
+            [0, 1]
+        };
+        for &i in order.iter().take(n) {
+            let seq = seqs[i];
+            if seq == 0 || seq == self.last_seq[i] {
+                continue;
+            }
+            let (start, len) = in_areas[i];
+            self.process_sequence(&rx[start..start + len], now, fx);
+            self.last_seq[i] = seq;
+            self.apply_job_updates(now, fx);
+            self.refresh_messages();
+            let (_, olen) = out_areas[i];
+            let mut w = SequenceWriter::new(&mut self.reply_areas[i][..olen], seq);
+            self.responses.fill(&mut w);
+        }
+        self.copy_reply_areas(out);
+    }
+
+    fn copy_reply_areas(&self, out: &mut [u8]) {
+        let (areas, n) = sequence_areas(out.len(), ROBOT_HEADER_LEN, 0, self.two_sequences());
+        for (i, &(start, len)) in areas.iter().enumerate().take(n) {
+            out[start..start + len].copy_from_slice(&self.reply_areas[i][..len]);
+        }
+    }
+
+    fn process_sequence(&mut self, area: &[u8], now: Now, fx: &mut Effects) {
+        let seq = match Sequence::decode(area) {
+            Ok(seq) => seq,
+            Err(e) => {
+                self.raise_malformed(now, e);
+                return;
+            }
+        };
+        for fragment in seq.fragments() {
+            let (header, data) = match fragment {
+                Ok(f) => f,
+                Err(e) => {
+                    self.raise_malformed(now, e);
+                    return;
+                }
+            };
+            match self.acr.on_fragment(&header, data) {
+                FragmentOutcome::Partial => {}
+                FragmentOutcome::Complete {
+                    slot,
+                    len,
+                    new_command,
+                } => {
+                    let mut message = [0u8; MESSAGE_CAPACITY];
+                    message[..len].copy_from_slice(self.acr.message(slot));
+                    let cmd_id = self.acr.cmd_id(slot);
+                    self.on_command_message(cmd_id, &message[..len], new_command, now, fx);
+                }
+                FragmentOutcome::UnknownCommand => self.raise(
+                    now,
+                    MessageType::Interface,
+                    severity::WARNING,
+                    code::TRANSITION_NOT_POSSIBLE,
+                    "fragment for a CmdID without a command (no Reset on its first fragment): ignored",
+                ),
+                FragmentOutcome::RegisterFull | FragmentOutcome::OutOfBounds => {
+                    self.respond_error_unregistered(header.cmd_id, code::INTERNAL_ERROR, now)
+                }
+            }
+        }
+    }
+
+    fn raise_malformed(&mut self, now: Now, e: shared_types::srci::telegram::TelegramError) {
+        let mut text = [0u8; 150];
+        let s = write_text(&mut text, format_args!("malformed sequence ignored: {e}"));
+        self.raise(
+            now,
+            MessageType::Interface,
+            severity::WARNING,
+            code::INTERNAL_ERROR,
+            s,
+        );
+    }
+
+    /// Sends the answer to a command whose fragments could not be registered.
+    fn respond_error_unregistered(&mut self, cmd_id: u16, code: u16, now: Now) {
+        self.responses.push(
+            cmd_id,
+            ResponseHeader {
+                par_seq: 0,
+                state: state::ERROR,
+                severity: severity::ERROR,
+                code,
+            },
+            ResponseHeader::LEN,
+            |_| {},
+        );
+        self.raise(
+            now,
+            MessageType::Command,
+            severity::ERROR,
+            code,
+            crate::commands::describe(code),
+        );
+    }
+
+    /// Records a message for ReadMessages.
+    pub(crate) fn raise(&mut self, now: Now, kind: MessageType, sev: i8, code: u16, text: &str) {
+        self.messages
+            .raise(now.unix_ms, kind, sev, u32::from(code), text);
+    }
+
+    /// Whether the drives are enabled (moves possible).
+    pub(crate) fn drives_enabled(&self) -> bool {
+        self.feedback
+            .is_some_and(|f| DriveState::from_wire(f.state).is_enabled())
+    }
+
+    fn status_word(&self) -> u32 {
+        let mut w = 4u32 << status_bit::OPERATION_MODE_SHIFT; // AUTO_EXT: the PLC drives the robot
+        w |= status_bit::IN_PRIMARY_POS;
+        if let Some(f) = self.feedback {
+            if DriveState::from_wire(f.state).is_enabled() {
+                w |= status_bit::ENABLED;
+            }
+            if f.qd.iter().any(|v| v.abs() > 1e-6) {
+                w |= status_bit::IS_MOVING;
+            }
+        }
+        if let Some(s) = self.status {
+            if s.moving {
+                w |= status_bit::IS_MOVING;
+            }
+            if s.active_job != 0 || s.queued_jobs != 0 {
+                w |= 1 << status_bit::SEQUENCE_STATE_SHIFT;
+            }
+            if s.accelerating {
+                w |= status_bit::ACCELERATING;
+            }
+            if s.decelerating {
+                w |= status_bit::DECELERATING;
+            }
+            if s.constant_velocity {
+                w |= status_bit::CONSTANT_VELOCITY;
+            }
+        }
+        if self.error_pending {
+            w |= status_bit::ERROR_PENDING;
+        }
+        w
+    }
+
+    fn write_header(&mut self, out: &mut [u8]) {
+        self.robot_lifesign = next_lifesign(self.robot_lifesign);
+        let header = RobotHeader {
+            version: SrciVersion::CURRENT,
+            lifesign: self.robot_lifesign,
+            telegram_state: self.telegram_state,
+            status: self.status_word(),
+            // Within 0..=100 %, so the product fits a u16.
+            override_centi: (self.override_percent * 100.0).round() as u16,
+        };
+        // `out` has the configured length, which config validation keeps in 64..=256.
+        let _ = header.encode(out);
+    }
+
+    /// Turns collected job updates into responses.
+    pub(crate) fn apply_job_updates(&mut self, now: Now, fx: &mut Effects) {
+        let mut i = 0;
+        while i < self.updates.len() {
+            let u = self.updates[i];
+            i += 1;
+            self.on_job_update(u, now, fx);
+        }
+        self.updates.clear();
+    }
+
+    /// The default lengths of request/response tables, by command type.
+    pub(crate) fn response_len(command_type: u16) -> usize {
+        tables::payload_lengths(command_type).map_or(ResponseHeader::LEN, |(_, _, rsp)| rsp)
+    }
+}
+
+/// Whether sequence number `a` is newer than `b` (numbers run 1..=254 and wrap to 1).
+fn newer(a: u16, b: u16) -> bool {
+    let d = (i32::from(a) - i32::from(b)).rem_euclid(254);
+    d != 0 && d < 127
+}
+
+/// Formats into a fixed buffer without allocating; text that does not fit is cut.
+pub(crate) fn write_text<'a>(buf: &'a mut [u8], args: core::fmt::Arguments<'_>) -> &'a str {
+    struct Cursor<'b> {
+        buf: &'b mut [u8],
+        len: usize,
+    }
+    impl core::fmt::Write for Cursor<'_> {
+        fn write_str(&mut self, s: &str) -> core::fmt::Result {
+            for ch in s.chars() {
+                let mut tmp = [0u8; 4];
+                let enc = ch.encode_utf8(&mut tmp);
+                if self.len + enc.len() > self.buf.len() {
+                    return Err(core::fmt::Error);
+                }
+                self.buf[self.len..self.len + enc.len()].copy_from_slice(enc.as_bytes());
+                self.len += enc.len();
+            }
+            Ok(())
+        }
+    }
+    let mut c = Cursor { buf, len: 0 };
+    let _ = core::fmt::write(&mut c, args);
+    let len = c.len;
+    core::str::from_utf8(&c.buf[..len]).unwrap_or("")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::newer;
+
+    #[test]
+    fn sequence_numbers_wrap_from_254_to_1() {
+        assert!(newer(2, 1));
+        assert!(newer(1, 254));
+        assert!(!newer(254, 1));
+        assert!(!newer(5, 5));
+    }
+}
+
+#[cfg(test)]
+#[path = "server_tests.rs"]
+mod server_tests;

@@ -1,0 +1,545 @@
+//! State-machine and command tests of the server core, driven by byte telegrams.
+
+use shared_types::ipc::{
+    DriveState, JOB_EVENTS, JobEvent, MotionCommand, MotionCommandKind, MotionStatus, ServoFeedback,
+};
+use shared_types::srci::message::{CommandHeader, ResponseHeader, code, state};
+use shared_types::srci::payload::{PayloadReader, PayloadWriter};
+use shared_types::srci::supported;
+use shared_types::srci::tables as t;
+use shared_types::srci::telegram::{
+    Control, FragmentAction, PLC_HEADER_LEN, PlcHeader, ROBOT_HEADER_LEN, RobotHeader, Sequence,
+    SequenceWriter, SrciVersion, sequence_areas, status_bit, telegram_state as ts,
+};
+
+use super::*;
+
+fn settings(len: usize) -> Settings {
+    let cfg = shared_types::config::Config::load(None).unwrap();
+    Settings {
+        length_plc_to_rob: len,
+        length_rob_to_plc: len,
+        acr_length: 8,
+        lifesign_timeout_ms: 50,
+        message_capacity: 16,
+        initial_override_percent: 100.0,
+        planner_timeout_ms: 100,
+        manufacturer: "test".into(),
+        serial_number: "1".into(),
+        robot_name: "JAKA Zu 7".into(),
+        limits: cfg.robot.limits_rad(),
+        cycle_time_ms: 1,
+        enable_timeout_ms: 1000,
+    }
+}
+
+/// A scripted PLC: builds telegrams, collects responses (complete ones, in order) and the
+/// motion commands the server emits.
+struct Plc {
+    len: usize,
+    lifesign: u8,
+    freeze_lifesign: bool,
+    control: Control,
+    seq: u16,
+    length_in_header: u16,
+    version: SrciVersion,
+    axes_group: u8,
+    number_p2r: u16,
+    number_r2p: u16,
+    now: u64,
+    partial: Vec<(u16, Vec<u8>)>,
+    responses: Vec<(u16, Vec<u8>)>,
+    motion: Vec<MotionCommand>,
+    last_rx: Vec<u8>,
+    last_ack: u16,
+}
+
+impl Plc {
+    fn new(len: usize) -> Self {
+        Self {
+            len,
+            lifesign: 0,
+            freeze_lifesign: false,
+            control: Control::None,
+            seq: 0,
+            length_in_header: len as u16,
+            version: SrciVersion::CURRENT,
+            axes_group: 0,
+            number_p2r: 0,
+            number_r2p: 0,
+            now: 1000,
+            partial: Vec::new(),
+            responses: Vec::new(),
+            motion: Vec::new(),
+            last_rx: Vec::new(),
+            last_ack: 0,
+        }
+    }
+
+    fn now(&self) -> Now {
+        Now {
+            mono_ms: self.now,
+            unix_ms: 1_700_000_000_000,
+        }
+    }
+
+    /// One exchange; `fragments` = (CmdID, action, pointer, bytes).
+    fn exchange(&mut self, server: &mut Server, fragments: &[(u16, u8, u16, &[u8])]) -> u8 {
+        if !self.freeze_lifesign {
+            self.lifesign = next_lifesign(self.lifesign);
+        }
+        self.now += 8;
+        let mut tx = vec![0u8; self.len];
+        PlcHeader {
+            version: self.version,
+            fast_stop: 0,
+            lifesign: self.lifesign,
+            length_plc_to_rob: self.length_in_header,
+            length_rob_to_plc: self.len as u16,
+            axes_group: self.axes_group,
+            control: self.control,
+            telegram_number_plc_to_rob: self.number_p2r,
+            telegram_number_rob_to_plc: self.number_r2p,
+            client_date: 0,
+            client_time: 0,
+        }
+        .encode(&mut tx)
+        .unwrap();
+        let (areas, _) = sequence_areas(self.len, PLC_HEADER_LEN, 0, false);
+        let (s, l) = areas[0];
+        let mut w = SequenceWriter::new(&mut tx[s..s + l], self.seq);
+        for &(id, action, ptr, data) in fragments {
+            assert!(w.push(id, action, ptr, data));
+        }
+        let mut rx = vec![0u8; 256];
+        let mut fx = Effects::new();
+        let n = server.on_telegram(self.now(), &tx, &mut rx, &mut fx);
+        server.poll(self.now(), &mut fx);
+        self.motion.extend(fx.motion.iter().copied());
+        rx.truncate(n);
+        self.collect(&rx);
+        self.last_rx = rx;
+        RobotHeader::decode(&self.last_rx).unwrap().telegram_state
+    }
+
+    fn collect(&mut self, rx: &[u8]) {
+        let (areas, _) = sequence_areas(rx.len(), ROBOT_HEADER_LEN, 0, false);
+        let (s, l) = areas[0];
+        let seq = Sequence::decode(&rx[s..s + l]).unwrap();
+        // Like the client: a response is taken only with a new ACK of the SEQ being sent.
+        let fresh = seq.seq_ack != self.last_ack && seq.seq_ack == self.seq;
+        self.last_ack = seq.seq_ack;
+        if !fresh {
+            return;
+        }
+        for f in seq.fragments() {
+            let (h, d) = f.unwrap();
+            let i = match self.partial.iter().position(|(id, _)| *id == h.cmd_id) {
+                Some(i) => i,
+                None => {
+                    self.partial.push((h.cmd_id, Vec::new()));
+                    self.partial.len() - 1
+                }
+            };
+            let buf = &mut self.partial[i].1;
+            let p = usize::from(h.pointer);
+            if buf.len() < p + d.len() {
+                buf.resize(p + d.len(), 0);
+            }
+            buf[p..p + d.len()].copy_from_slice(d);
+            if h.action.complete() {
+                let done = self.partial.remove(i);
+                self.responses.push(done);
+            }
+        }
+    }
+
+    /// INITIALIZE until 255.
+    fn initialize(&mut self, server: &mut Server) {
+        self.control = Control::Initialize;
+        self.exchange(server, &[]);
+        self.control = Control::None;
+        assert_eq!(self.exchange(server, &[]), ts::INITIALIZED);
+    }
+
+    /// Sends a single-fragment command in a new SEQ and repeats it once, like the client.
+    fn command(&mut self, server: &mut Server, cmd_id: u16, action: u8, payload: &[u8]) {
+        self.seq = if self.seq >= 254 { 1 } else { self.seq + 1 };
+        self.exchange(server, &[(cmd_id, action, 0, payload)]);
+        self.exchange(server, &[(cmd_id, action, 0, payload)]);
+    }
+
+    /// An empty new SEQ (lets queued responses out).
+    fn idle(&mut self, server: &mut Server) {
+        self.seq = if self.seq >= 254 { 1 } else { self.seq + 1 };
+        self.exchange(server, &[]);
+    }
+
+    fn last_response(&self, cmd_id: u16) -> Option<ResponseHeader> {
+        self.responses
+            .iter()
+            .rev()
+            .find(|(id, _)| *id == cmd_id)
+            .map(|(_, b)| ResponseHeader::decode(b))
+    }
+}
+
+fn request(command_type: u16, mode: u8, len: usize) -> Vec<u8> {
+    let mut b = vec![0u8; len.max(4)];
+    CommandHeader {
+        command_type,
+        execution_mode: mode,
+        par_seq: 1,
+        priority: 3,
+    }
+    .encode(&mut b);
+    b
+}
+
+const NEW: u8 = FragmentAction::RESET | FragmentAction::COMPLETE;
+
+fn feedback(state: DriveState) -> ServoFeedback {
+    ServoFeedback {
+        instance: 1,
+        tick: 1,
+        time_ns: 0,
+        period_ns: 1_000_000,
+        q: [0.0, 1.57, 1.57, 1.57, -1.57, 0.0],
+        qd: [0.0; 6],
+        state: state as u8,
+        reserved: 0,
+        fault_code: 0,
+        reserved2: 0,
+        control_seq: 0,
+        setpoint_misses: 0,
+        overruns: 0,
+    }
+}
+
+fn status(instance: u64, events: &[(u64, u32, u8, u16)]) -> MotionStatus {
+    let mut s = MotionStatus {
+        instance,
+        tick: 0,
+        acked_seq: 0,
+        acked_issuer: 0,
+        event_head: 0,
+        events: [JobEvent::default(); JOB_EVENTS],
+        active_job: 0,
+        queued_jobs: 0,
+        active_progress: 0.0,
+        joints_rad: [0.0; 6],
+        joint_velocities: [0.0; 6],
+        flange_pose: [0.5, 0.1, 0.2, 0.0, 0.0, 0.0],
+        override_fraction: 1.0,
+        moving: false,
+        accelerating: false,
+        decelerating: false,
+        constant_velocity: false,
+        error_code: 0,
+        reserved: 0,
+    };
+    for &(n, job, st, c) in events {
+        s.events[(n % JOB_EVENTS as u64) as usize] = JobEvent {
+            number: n,
+            job,
+            state: st,
+            reserved: 0,
+            code: c,
+        };
+        s.event_head = n;
+    }
+    s
+}
+
+#[test]
+fn initializes_from_254_to_255_and_acknowledges_sequences() {
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    assert_eq!(plc.exchange(&mut server, &[]), ts::READY_FOR_INITIALIZATION);
+    plc.initialize(&mut server);
+    plc.idle(&mut server);
+    let (areas, _) = sequence_areas(256, ROBOT_HEADER_LEN, 0, false);
+    let seq = Sequence::decode(&plc.last_rx[areas[0].0..]).unwrap();
+    assert_eq!(seq.seq_ack, plc.seq);
+    let rh = RobotHeader::decode(&plc.last_rx).unwrap();
+    assert!(RobotHeader::is_consistent(&plc.last_rx));
+    assert_eq!(rh.override_centi, 10_000);
+    assert_eq!(
+        rh.status & (7 << status_bit::OPERATION_MODE_SHIFT),
+        4 << status_bit::OPERATION_MODE_SHIFT
+    );
+}
+
+#[test]
+fn header_faults_give_their_telegram_states_and_reset_recovers() {
+    type Fault = fn(&mut Plc);
+    let cases: [(Fault, u8); 4] = [
+        (|p| p.length_in_header = 128, ts::LENGTH_MISMATCH),
+        (
+            |p| p.version = SrciVersion { major: 2, minor: 0 },
+            ts::MAJOR_VERSION,
+        ),
+        (|p| p.axes_group = 5, ts::INVALID_AXES_GROUP),
+        (|p| p.number_p2r = 1 << 8, ts::TELEGRAM_NUMBER_INVALID),
+    ];
+    for (fault, expected) in cases {
+        let mut server = Server::new(settings(256), 9);
+        let mut plc = Plc::new(256);
+        fault(&mut plc);
+        plc.control = Control::Initialize;
+        assert_eq!(plc.exchange(&mut server, &[]), expected);
+        plc.control = Control::Reset;
+        assert_eq!(plc.exchange(&mut server, &[]), ts::READY_FOR_INITIALIZATION);
+    }
+}
+
+#[test]
+fn frozen_lifesign_gives_165_and_halts_motion() {
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.initialize(&mut server);
+    plc.freeze_lifesign = true;
+    let mut state = ts::INITIALIZED;
+    for _ in 0..10 {
+        state = plc.exchange(&mut server, &[]);
+    }
+    assert_eq!(state, ts::LIFESIGN_TIMEOUT);
+    assert!(
+        plc.motion
+            .iter()
+            .any(|c| c.kind == MotionCommandKind::Halt as u8)
+    );
+    // A changed header after initialization is refused as well.
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.initialize(&mut server);
+    plc.number_r2p = 2;
+    assert_eq!(plc.exchange(&mut server, &[]), ts::TELEGRAM_NUMBER_CHANGED);
+}
+
+#[test]
+fn torn_frames_are_not_interpreted() {
+    let mut server = Server::new(settings(64), 9);
+    let mut plc = Plc::new(64);
+    plc.initialize(&mut server);
+    let mut tx = vec![0u8; 64];
+    tx[1] = 5;
+    tx[63] = 6;
+    let mut rx = [0u8; 256];
+    let mut fx = Effects::new();
+    server.on_telegram(plc.now(), &tx, &mut rx, &mut fx);
+    assert_eq!(server.invalid_frames(), 1);
+    assert_eq!(server.telegram_state(), ts::INITIALIZED);
+}
+
+#[test]
+fn unsupported_command_is_answered_8f11_once_per_sequence() {
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.initialize(&mut server);
+    let msg = request(
+        t::move_linear_absolute::TYPE,
+        0,
+        t::move_linear_absolute::request::LEN,
+    );
+    plc.command(&mut server, 1, NEW, &msg);
+    let responses: Vec<_> = plc.responses.iter().filter(|(id, _)| *id == 1).collect();
+    assert_eq!(responses.len(), 1, "a repeated SEQ is processed once");
+    let h = plc.last_response(1).unwrap();
+    assert_eq!(
+        (h.state, h.code, h.severity),
+        (state::ERROR, code::NOT_IMPLEMENTED, 28)
+    );
+}
+
+#[test]
+fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
+    let mut server = Server::new(settings(64), 9);
+    let mut plc = Plc::new(64);
+    plc.initialize(&mut server);
+    plc.command(
+        &mut server,
+        2,
+        NEW,
+        &request(t::read_robot_data::TYPE, 2, 4),
+    );
+    for _ in 0..4 {
+        plc.idle(&mut server);
+    }
+    let (_, body) = plc.responses.iter().find(|(id, _)| *id == 2).unwrap();
+    assert_eq!(body.len(), t::read_robot_data::response::LEN);
+    let r = PayloadReader::new(body);
+    assert_eq!(r.u8(t::read_robot_data::response::STATE), state::DONE);
+    let map: [u8; 19] = core::array::from_fn(|i| {
+        r.u8(t::read_robot_data::response::RC_SUPPORTED_FUNCTIONS.element(i))
+    });
+    for ty in crate::commands::IMPLEMENTED {
+        assert!(supported::announces(&map, ty), "type {ty} announced");
+    }
+    assert!(!supported::announces(&map, t::move_linear_absolute::TYPE));
+    assert!(!supported::announces(&map, t::group_jog::TYPE));
+}
+
+#[test]
+fn move_needs_enabled_drives_and_reports_planner_events() {
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.initialize(&mut server);
+    let mut fx = Effects::new();
+    server.on_motion_status(plc.now(), &status(5, &[]), &mut fx);
+    server.on_servo_feedback(plc.now(), &feedback(DriveState::Powered), &mut fx);
+    let mut msg = request(
+        t::move_axes_absolute::TYPE,
+        0,
+        t::move_axes_absolute::request::LEN,
+    );
+    {
+        let mut w = PayloadWriter::new(&mut msg);
+        for f in [
+            t::move_axes_absolute::request::VELOCITY_RATE,
+            t::move_axes_absolute::request::ACCELERATION_RATE,
+            t::move_axes_absolute::request::DECELERATION_RATE,
+            t::move_axes_absolute::request::JERK_RATE,
+        ] {
+            w.set_u16(f, 0xFFFF);
+        }
+        w.set_f32(t::move_axes_absolute::request::JOINT_POSITION_J1, 10.0);
+    }
+    plc.command(&mut server, 3, NEW, &msg);
+    let h = plc.last_response(3).unwrap();
+    assert_eq!((h.state, h.code), (state::ERROR, code::ROBOT_DISABLED));
+    assert!(
+        plc.motion
+            .iter()
+            .all(|c| c.kind != MotionCommandKind::MoveAxes as u8)
+    );
+
+    server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+    plc.command(&mut server, 3, NEW, &msg);
+    let mv = *plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::MoveAxes as u8)
+        .unwrap();
+    assert!((mv.joints_rad[0] - 10f64.to_radians()).abs() < 1e-6);
+    server.on_motion_status(
+        plc.now(),
+        &status(
+            5,
+            &[
+                (1, mv.job, state::BUFFERED, 0),
+                (2, mv.job, state::ACTIVE, 0),
+                (3, mv.job, state::DONE, 0),
+            ],
+        ),
+        &mut fx,
+    );
+    plc.idle(&mut server);
+    let states: Vec<u8> = plc
+        .responses
+        .iter()
+        .filter(|(id, _)| *id == 3)
+        .map(|(_, b)| ResponseHeader::decode(b).state)
+        .collect();
+    assert_eq!(
+        states,
+        [state::ERROR, state::BUFFERED, state::ACTIVE, state::DONE]
+    );
+    let (_, done) = plc.responses.last().unwrap();
+    assert_eq!(
+        PayloadReader::new(done).u16(t::move_axes_absolute::response::PROGRESS),
+        10_000
+    );
+}
+
+#[test]
+fn planner_restart_ends_moves_with_an_error_until_group_reset() {
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.initialize(&mut server);
+    let mut fx = Effects::new();
+    server.on_motion_status(plc.now(), &status(5, &[]), &mut fx);
+    server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+    let mut msg = request(
+        t::move_axes_absolute::TYPE,
+        0,
+        t::move_axes_absolute::request::LEN,
+    );
+    PayloadWriter::new(&mut msg).set_u16(t::move_axes_absolute::request::DECELERATION_RATE, 0xFFFF);
+    plc.command(&mut server, 4, NEW, &msg);
+    server.on_motion_status(plc.now(), &status(6, &[]), &mut fx);
+    plc.idle(&mut server);
+    let h = plc.last_response(4).unwrap();
+    assert_eq!((h.state, h.code), (state::ERROR, code::MOTION_ERROR));
+    let rh = RobotHeader::decode(&plc.last_rx).unwrap();
+    assert_ne!(rh.status & status_bit::ERROR_PENDING, 0);
+
+    plc.command(&mut server, 4, NEW, &msg);
+    assert_eq!(
+        plc.last_response(4).unwrap().code,
+        code::DISABLED_DUE_TO_ERROR
+    );
+
+    plc.command(&mut server, 5, NEW, &request(t::group_reset::TYPE, 2, 4));
+    let reset = *plc
+        .motion
+        .iter()
+        .rev()
+        .find(|c| c.kind == MotionCommandKind::Reset as u8)
+        .unwrap();
+    server.on_motion_status(
+        plc.now(),
+        &status(6, &[(1, reset.job, state::DONE, 0)]),
+        &mut fx,
+    );
+    plc.idle(&mut server);
+    assert_eq!(plc.last_response(5).unwrap().state, state::DONE);
+    let rh = RobotHeader::decode(&plc.last_rx).unwrap();
+    assert_eq!(rh.status & status_bit::ERROR_PENDING, 0);
+}
+
+#[test]
+fn read_messages_delivers_and_takes_acknowledgements() {
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.initialize(&mut server);
+    let mut rm = request(t::read_messages::TYPE, 2, t::read_messages::request::LEN);
+    PayloadWriter::new(&mut rm).set_u8(t::read_messages::request::MESSAGE_LEVEL, 20);
+    plc.command(&mut server, 1, NEW, &rm);
+    assert_eq!(plc.last_response(1).unwrap().state, state::ACTIVE);
+    // An unsupported command raises an error message.
+    plc.command(&mut server, 2, NEW, &request(t::group_jog::TYPE, 7, 23));
+    plc.idle(&mut server);
+    let (_, body) = plc.responses.iter().rev().find(|(id, _)| *id == 1).unwrap();
+    let r = PayloadReader::new(body);
+    let id = r.u8(t::read_messages::response::MSG_ID);
+    assert_ne!(id, 0);
+    assert_eq!(
+        r.u32(t::read_messages::response::ERROR_CODE),
+        u32::from(code::NOT_IMPLEMENTED)
+    );
+    assert_eq!(r.u8(t::read_messages::response::NUMBER_OF_ACTIVE_ERRORS), 1);
+    // Acknowledge by a parameter update (Clear, ParSeq + 1).
+    let mut ack = rm.clone();
+    CommandHeader {
+        command_type: t::read_messages::TYPE,
+        execution_mode: 2,
+        par_seq: 2,
+        priority: 3,
+    }
+    .encode(&mut ack);
+    PayloadWriter::new(&mut ack).set_u8(t::read_messages::request::MSG_ID, id);
+    plc.command(
+        &mut server,
+        1,
+        FragmentAction::CLEAR | FragmentAction::COMPLETE,
+        &ack,
+    );
+    let (_, body) = plc.responses.iter().rev().find(|(id, _)| *id == 1).unwrap();
+    let h = ResponseHeader::decode(body);
+    assert_eq!((h.par_seq, h.state), (2, state::ACTIVE));
+    assert_eq!(
+        PayloadReader::new(body).u8(t::read_messages::response::MSG_ID),
+        0
+    );
+}

@@ -1,0 +1,144 @@
+//! The interpreter process: answers every PLC telegram through the [`Server`] core and
+//! carries its effects to the planner and the drives.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use shared_types::bus::{self, Bus, BusError};
+use shared_types::config::Config;
+use shared_types::ipc::{
+    LinkEvent, MotionCommand, MotionStatus, PlcTelegram, RobotTelegram, ServoControl,
+    ServoFeedback, TELEGRAM_CAPACITY, topics,
+};
+
+use crate::server::{Effects, Now, Server, Settings};
+
+/// The interpreter process failed.
+#[derive(Debug, thiserror::Error)]
+pub enum InterpreterError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+}
+
+/// Longest wait for a telegram before periodic work runs (lifesign supervision granularity).
+const POLL_INTERVAL: Duration = Duration::from_millis(2);
+/// Telegrams handled per wake-up at most (bounds the loop; more wait for the next pass).
+const TELEGRAMS_PER_PASS: usize = 16;
+
+fn settings(config: &Config) -> Settings {
+    let m = &config.main;
+    Settings {
+        length_plc_to_rob: usize::from(m.fieldbus.telegram_length_plc_to_rob),
+        length_rob_to_plc: usize::from(m.fieldbus.telegram_length_rob_to_plc),
+        acr_length: usize::from(m.interpreter.acr_length),
+        lifesign_timeout_ms: m.interpreter.lifesign_timeout_ms,
+        message_capacity: usize::from(m.interpreter.message_capacity),
+        initial_override_percent: m.interpreter.initial_override_percent,
+        planner_timeout_ms: m.interpreter.planner_timeout_ms,
+        manufacturer: m.interpreter.manufacturer.clone(),
+        serial_number: m.interpreter.serial_number.clone(),
+        robot_name: config.robot.name.clone(),
+        limits: config.robot.limits_rad(),
+        // At least 1 ms; config keeps the period at or below 8 ms.
+        cycle_time_ms: m.servo.period_us.div_ceil(1000).max(1) as u16,
+        enable_timeout_ms: m.servo.power_on_delay_ms + m.servo.enable_delay_ms + 5_000,
+    }
+}
+
+fn now() -> Now {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes into the timespec we own; CLOCK_MONOTONIC always exists.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    let mono_ms = (ts.tv_sec as u64) * 1000 + (ts.tv_nsec as u64) / 1_000_000;
+    let unix_ms = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64);
+    Now { mono_ms, unix_ms }
+}
+
+/// Runs the interpreter until `shutdown` is set.
+pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterError> {
+    let bus = Bus::new(&config.main.instance, "interpreter")?;
+    let telegrams = bus.subscriber::<PlcTelegram>(topics::P2R)?;
+    let telegram_wakeup = bus.listener(topics::P2R)?;
+    let answers = bus.publisher::<RobotTelegram>(topics::R2P)?;
+    let answer_wakeup = bus.notifier(topics::R2P)?;
+    let commands = bus.publisher::<MotionCommand>(topics::MOTION_COMMAND)?;
+    let status = bus.subscriber::<MotionStatus>(topics::MOTION_STATUS)?;
+    let feedback = bus.subscriber::<ServoFeedback>(topics::SERVO_FEEDBACK)?;
+    let control = bus.publisher::<ServoControl>(topics::SERVO_CONTROL)?;
+
+    let issuer = now().unix_ms ^ (u64::from(std::process::id()) << 40);
+    let mut server = Server::new(settings(config), issuer);
+    let mut fx = Effects::new();
+    let mut answer = RobotTelegram {
+        counter: 0,
+        connection: 0,
+        reserved: 0,
+        len: 0,
+        bytes: [0; TELEGRAM_CAPACITY],
+    };
+    tracing::info!(
+        instance = %config.main.instance,
+        robot = %config.robot.name,
+        "interpreter ready: TelegramState 254 READY_FOR_INITIALIZATION"
+    );
+    let mut last_state = server.telegram_state();
+
+    while !shutdown.load(Ordering::Relaxed) {
+        bus::wait_for_wakeup(&telegram_wakeup, POLL_INTERVAL)?;
+        let t = now();
+        if let Some(s) = bus::receive_latest(&status)? {
+            server.on_motion_status(t, &s, &mut fx);
+        }
+        if let Some(f) = bus::receive_latest(&feedback)? {
+            server.on_servo_feedback(t, &f, &mut fx);
+        }
+        for _ in 0..TELEGRAMS_PER_PASS {
+            let Some(sample) = telegrams.receive().map_err(|e| BusError {
+                action: "receive on",
+                service: topics::P2R.into(),
+                detail: format!("{e:?}"),
+            })?
+            else {
+                break;
+            };
+            let request = *sample.payload();
+            drop(sample);
+            match LinkEvent::from_wire(request.event) {
+                LinkEvent::Telegram => {
+                    let n = server.on_telegram(t, request.telegram(), &mut answer.bytes, &mut fx);
+                    answer.counter = request.counter;
+                    answer.connection = request.connection;
+                    // At most TELEGRAM_CAPACITY (256).
+                    answer.len = n as u16;
+                    bus::publish(&answers, answer)?;
+                    // A missed wake-up only delays the answer until the fieldbus polls again.
+                    let _ = answer_wakeup.notify();
+                }
+                event => {
+                    tracing::info!(?event, connection = request.connection, "fieldbus link");
+                    server.on_link(t, event, &mut fx);
+                }
+            }
+        }
+        server.poll(t, &mut fx);
+        for c in fx.motion.iter() {
+            bus::publish(&commands, *c)?;
+        }
+        if let Some(c) = fx.servo {
+            bus::publish(&control, c)?;
+        }
+        fx.clear();
+        let state = server.telegram_state();
+        if state != last_state {
+            tracing::info!(from = last_state, to = state, "TelegramState changed");
+            last_state = state;
+        }
+    }
+    tracing::info!("interpreter stopped");
+    Ok(())
+}
