@@ -14,6 +14,54 @@ use shared_types::srci::telegram::{
 
 use super::*;
 
+/// Counts heap allocations of the current thread while `COUNTING` is set, so tests can show
+/// that the server core does not allocate per telegram.
+mod alloc_counter {
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+
+    pub struct Counting;
+
+    thread_local! {
+        static COUNTING: Cell<bool> = const { Cell::new(false) };
+        static COUNT: Cell<u64> = const { Cell::new(0) };
+    }
+
+    // SAFETY: delegates to the system allocator; only counts.
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            if COUNTING.with(Cell::get) {
+                COUNT.with(|c| c.set(c.get() + 1));
+            }
+            // SAFETY: same contract as the caller's.
+            unsafe { System.alloc(layout) }
+        }
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            // SAFETY: same contract as the caller's.
+            unsafe { System.dealloc(ptr, layout) }
+        }
+        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+            if COUNTING.with(Cell::get) {
+                COUNT.with(|c| c.set(c.get() + 1));
+            }
+            // SAFETY: same contract as the caller's.
+            unsafe { System.realloc(ptr, layout, new_size) }
+        }
+    }
+
+    /// Allocations made by `f` on this thread.
+    pub fn count<R>(f: impl FnOnce() -> R) -> (R, u64) {
+        COUNT.with(|c| c.set(0));
+        COUNTING.with(|c| c.set(true));
+        let r = f();
+        COUNTING.with(|c| c.set(false));
+        (r, COUNT.with(Cell::get))
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: alloc_counter::Counting = alloc_counter::Counting;
+
 fn settings(len: usize) -> Settings {
     let cfg = shared_types::config::Config::load(None).unwrap();
     Settings {
@@ -52,6 +100,8 @@ struct Plc {
     motion: Vec<MotionCommand>,
     last_rx: Vec<u8>,
     last_ack: u16,
+    /// Allocations the server made inside `on_telegram` and `poll`.
+    server_allocations: u64,
 }
 
 impl Plc {
@@ -73,6 +123,7 @@ impl Plc {
             motion: Vec::new(),
             last_rx: Vec::new(),
             last_ack: 0,
+            server_allocations: 0,
         }
     }
 
@@ -113,8 +164,13 @@ impl Plc {
         }
         let mut rx = vec![0u8; 256];
         let mut fx = Effects::new();
-        let n = server.on_telegram(self.now(), &tx, &mut rx, &mut fx);
-        server.poll(self.now(), &mut fx);
+        let now = self.now();
+        let (n, allocations) = alloc_counter::count(|| {
+            let n = server.on_telegram(now, &tx, &mut rx, &mut fx);
+            server.poll(now, &mut fx);
+            n
+        });
+        self.server_allocations += allocations;
         self.motion.extend(fx.motion.iter().copied());
         rx.truncate(n);
         self.collect(&rx);
@@ -542,4 +598,40 @@ fn read_messages_delivers_and_takes_acknowledgements() {
         PayloadReader::new(body).u8(t::read_messages::response::MSG_ID),
         0
     );
+}
+
+#[test]
+fn steady_state_telegrams_do_not_allocate() {
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.initialize(&mut server);
+    let mut fx = Effects::new();
+    server.on_motion_status(plc.now(), &status(5, &[]), &mut fx);
+    server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+    let mut rm = request(t::read_messages::TYPE, 2, t::read_messages::request::LEN);
+    PayloadWriter::new(&mut rm).set_u8(t::read_messages::request::MESSAGE_LEVEL, 20);
+    plc.command(&mut server, 1, NEW, &rm);
+    let mut mv = request(t::move_axes_absolute::TYPE, 0, t::move_axes_absolute::request::LEN);
+    PayloadWriter::new(&mut mv).set_u16(t::move_axes_absolute::request::DECELERATION_RATE, 0xFFFF);
+    plc.server_allocations = 0;
+    let mut events = 0;
+    for round in 0..50u16 {
+        plc.command(&mut server, 2, NEW, &mv);
+        plc.command(&mut server, 3, NEW, &request(t::read_actual_position::TYPE, 2, 12));
+        plc.command(&mut server, 4, NEW, &request(t::group_jog::TYPE, 7, 23));
+        let job = plc.motion.last().map_or(0, |c| c.job);
+        events += 1;
+        let s = status(5, &[(events, job, state::DONE, 0)]);
+        let ((), a) = alloc_counter::count(|| {
+            server.on_motion_status(plc.now(), &s, &mut fx);
+            server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+        });
+        plc.server_allocations += a;
+        fx.clear();
+        plc.idle(&mut server);
+        assert_eq!(plc.last_response(2).map(|h| h.state), Some(state::DONE), "round {round}");
+    }
+    assert_eq!(plc.server_allocations, 0, "allocations in the steady state");
+    let (_, probe) = alloc_counter::count(|| std::hint::black_box(vec![1u8; 8]));
+    assert_eq!(probe, 1, "the counter sees allocations");
 }
