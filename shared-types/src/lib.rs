@@ -5,3 +5,4 @@ pub mod bus;
 pub mod config;
 pub mod ipc;
 pub mod srci;
+pub mod time;

@@ -1,1 +1,193 @@
-//! placeholder
+//! The fieldbus process: the TCP gateway transport of SRCI.
+//!
+//! The protocol of the public SRCI TCP/IP bridge and of the open Python SRCI client: raw
+//! telegrams without framing, a fixed length in each direction, strict lockstep with the client
+//! as the cycle master. Every complete PLC telegram goes to the interpreter on `srci/p2r`; its
+//! answer (matched by counter) goes back as exactly one reply. Nothing is ever sent unasked,
+//! and a request the interpreter does not answer in time gets no reply at all.
+
+pub mod assembler;
+mod bridge;
+mod tcp;
+mod throttle;
+
+use std::io;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use shared_types::bus::{Bus, BusError};
+use shared_types::config::Config;
+use shared_types::ipc::{LinkEvent, TELEGRAM_CAPACITY};
+use shared_types::time::monotonic_ns;
+
+use assembler::{TelegramAssembler, TelegramLengthError};
+use bridge::TelegramBridge;
+use tcp::{Activity, Disconnect, Ended, TcpLink};
+use throttle::WarnThrottle;
+
+/// Longest wait for socket activity, so shutdown is noticed promptly.
+const POLL_INTERVAL: Duration = Duration::from_millis(10);
+/// At most one "no reply" warning per this interval.
+const LATE_REPLY_LOG_INTERVAL_NS: u64 = 1_000_000_000;
+
+/// The fieldbus process failed.
+#[derive(Debug, thiserror::Error)]
+pub enum FieldbusError {
+    #[error("cannot listen on {addr}: {source}")]
+    Bind { addr: String, source: io::Error },
+    #[error("fieldbus.{key}: {source}")]
+    TelegramLength {
+        key: &'static str,
+        source: TelegramLengthError,
+    },
+    #[error("poll on the fieldbus sockets failed: {0}")]
+    Poll(io::Error),
+    #[error("cannot read the listen address: {0}")]
+    LocalAddr(io::Error),
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    #[error("wake-up notification on '{topic}' failed: {detail}")]
+    Notify { topic: &'static str, detail: String },
+}
+
+/// The TCP gateway: a listening socket bound to the bus.
+pub struct Gateway {
+    link: TcpLink,
+    bridge: TelegramBridge,
+    reply_timeout: Duration,
+    reply_length: usize,
+    late_replies: WarnThrottle,
+    // Declared last: the ports above are dropped before their node.
+    _bus: Bus,
+}
+
+impl Gateway {
+    /// Opens the telegram topics and listens on `fieldbus.listen`.
+    pub fn bind(config: &Config) -> Result<Self, FieldbusError> {
+        let fb = &config.main.fieldbus;
+        let assembler = TelegramAssembler::new(usize::from(fb.telegram_length_plc_to_rob))
+            .map_err(|source| FieldbusError::TelegramLength {
+                key: "telegram_length_plc_to_rob",
+                source,
+            })?;
+        let reply_length = usize::from(fb.telegram_length_rob_to_plc);
+        if !(1..=TELEGRAM_CAPACITY).contains(&reply_length) {
+            return Err(FieldbusError::TelegramLength {
+                key: "telegram_length_rob_to_plc",
+                source: TelegramLengthError(reply_length),
+            });
+        }
+        let bus = Bus::new(&config.main.instance, "fieldbus")?;
+        let bridge = TelegramBridge::open(&bus)?;
+        let link = TcpLink::bind(&fb.listen, assembler)?;
+        Ok(Self {
+            link,
+            bridge,
+            reply_timeout: Duration::from_millis(fb.reply_timeout_ms),
+            reply_length,
+            late_replies: WarnThrottle::new(LATE_REPLY_LOG_INTERVAL_NS),
+            _bus: bus,
+        })
+    }
+
+    /// The address clients connect to (tells the port when `listen` asked for port 0).
+    pub fn local_addr(&self) -> Result<SocketAddr, FieldbusError> {
+        self.link.local_addr().map_err(FieldbusError::LocalAddr)
+    }
+
+    /// Serves clients until `shutdown` becomes true; the client then present is closed and
+    /// reported as disconnected.
+    pub fn serve(&mut self, shutdown: &AtomicBool) -> Result<(), FieldbusError> {
+        tracing::info!(
+            listen = %self.local_addr()?,
+            plc_to_rob = self.link.request_length(),
+            rob_to_plc = self.reply_length,
+            "fieldbus TCP gateway listening"
+        );
+        while !shutdown.load(Ordering::Relaxed) {
+            match self.link.poll(POLL_INTERVAL)? {
+                Activity::Idle => {}
+                Activity::Connected {
+                    connection,
+                    peer,
+                    replaced,
+                } => {
+                    if let Some(old) = replaced {
+                        tracing::info!(connection = old, "fieldbus client replaced by a new one");
+                        self.bridge.link_event(old, LinkEvent::Disconnected)?;
+                    }
+                    tracing::info!(connection, %peer, "fieldbus client connected");
+                    self.bridge.link_event(connection, LinkEvent::Connected)?;
+                }
+                Activity::Disconnected(ended) => self.report_ended(ended)?,
+                Activity::Telegram => self.exchange(shutdown)?,
+            }
+        }
+        if let Some(connection) = self.link.close() {
+            tracing::info!(connection, "fieldbus client closed at shutdown");
+            self.bridge
+                .link_event(connection, LinkEvent::Disconnected)?;
+        }
+        Ok(())
+    }
+
+    /// One lockstep cycle: the complete request to the interpreter, its answer to the client.
+    fn exchange(&mut self, shutdown: &AtomicBool) -> Result<(), FieldbusError> {
+        let received_ns = monotonic_ns();
+        let Some((connection, telegram)) = self.link.take_telegram() else {
+            return Ok(());
+        };
+        let counter = self.bridge.forward(connection, telegram, received_ns)?;
+        match self
+            .bridge
+            .await_reply(counter, self.reply_timeout, shutdown)?
+        {
+            Some(reply) => {
+                if let Err(ended) = self
+                    .link
+                    .reply(connection, &reply.bytes[..self.reply_length])
+                {
+                    self.report_ended(ended)?;
+                }
+            }
+            // Cut short by shutdown: not the interpreter's fault, nothing to report.
+            None if shutdown.load(Ordering::Relaxed) => {}
+            None => {
+                if let Some(suppressed) = self.late_replies.admit(monotonic_ns()) {
+                    tracing::warn!(
+                        counter,
+                        connection,
+                        timeout_ms = self.reply_timeout.as_millis() as u64,
+                        suppressed,
+                        "no answer from the interpreter in time; request left unanswered"
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn report_ended(&mut self, ended: Ended) -> Result<(), FieldbusError> {
+        match ended.reason {
+            Disconnect::Closed => tracing::info!(
+                connection = ended.connection,
+                partial_bytes = ended.partial_bytes,
+                "fieldbus client disconnected"
+            ),
+            Disconnect::Failed(kind) => tracing::warn!(
+                connection = ended.connection,
+                error = %kind,
+                partial_bytes = ended.partial_bytes,
+                "fieldbus client connection failed"
+            ),
+        }
+        self.bridge
+            .link_event(ended.connection, LinkEvent::Disconnected)
+    }
+}
+
+/// Runs the TCP gateway until `shutdown` becomes true (returns within about 10 ms).
+pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), FieldbusError> {
+    Gateway::bind(config)?.serve(shutdown)
+}

@@ -159,6 +159,16 @@ impl Server {
         self.telegram_state
     }
 
+    /// The current drive power request.
+    pub fn servo_control(&self) -> ServoControl {
+        self.servo_control
+    }
+
+    /// Whether a command has set the drive power request since start.
+    pub fn servo_control_set(&self) -> bool {
+        self.servo_control.seq != 0
+    }
+
     /// Telegrams dropped because header and footer lifesign differed.
     pub fn invalid_frames(&self) -> u64 {
         self.invalid_frames

@@ -611,13 +611,22 @@ fn steady_state_telegrams_do_not_allocate() {
     let mut rm = request(t::read_messages::TYPE, 2, t::read_messages::request::LEN);
     PayloadWriter::new(&mut rm).set_u8(t::read_messages::request::MESSAGE_LEVEL, 20);
     plc.command(&mut server, 1, NEW, &rm);
-    let mut mv = request(t::move_axes_absolute::TYPE, 0, t::move_axes_absolute::request::LEN);
+    let mut mv = request(
+        t::move_axes_absolute::TYPE,
+        0,
+        t::move_axes_absolute::request::LEN,
+    );
     PayloadWriter::new(&mut mv).set_u16(t::move_axes_absolute::request::DECELERATION_RATE, 0xFFFF);
     plc.server_allocations = 0;
     let mut events = 0;
     for round in 0..50u16 {
         plc.command(&mut server, 2, NEW, &mv);
-        plc.command(&mut server, 3, NEW, &request(t::read_actual_position::TYPE, 2, 12));
+        plc.command(
+            &mut server,
+            3,
+            NEW,
+            &request(t::read_actual_position::TYPE, 2, 12),
+        );
         plc.command(&mut server, 4, NEW, &request(t::group_jog::TYPE, 7, 23));
         let job = plc.motion.last().map_or(0, |c| c.job);
         events += 1;
@@ -629,7 +638,11 @@ fn steady_state_telegrams_do_not_allocate() {
         plc.server_allocations += a;
         fx.clear();
         plc.idle(&mut server);
-        assert_eq!(plc.last_response(2).map(|h| h.state), Some(state::DONE), "round {round}");
+        assert_eq!(
+            plc.last_response(2).map(|h| h.state),
+            Some(state::DONE),
+            "round {round}"
+        );
     }
     assert_eq!(plc.server_allocations, 0, "allocations in the steady state");
     let (_, probe) = alloc_counter::count(|| std::hint::black_box(vec![1u8; 8]));

@@ -24,6 +24,9 @@ pub enum InterpreterError {
 const POLL_INTERVAL: Duration = Duration::from_millis(2);
 /// Telegrams handled per wake-up at most (bounds the loop; more wait for the next pass).
 const TELEGRAMS_PER_PASS: usize = 16;
+/// The drive power request is re-published this often, so a restarted servo process (which
+/// sees the topic's history only once the publisher sends again) gets it back.
+const CONTROL_REPUBLISH_MS: u64 = 100;
 
 fn settings(config: &Config) -> Settings {
     let m = &config.main;
@@ -46,17 +49,10 @@ fn settings(config: &Config) -> Settings {
 }
 
 fn now() -> Now {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: clock_gettime writes into the timespec we own; CLOCK_MONOTONIC always exists.
-    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-    let mono_ms = (ts.tv_sec as u64) * 1000 + (ts.tv_nsec as u64) / 1_000_000;
-    let unix_ms = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_millis() as u64);
-    Now { mono_ms, unix_ms }
+    Now {
+        mono_ms: shared_types::time::monotonic_ns() / 1_000_000,
+        unix_ms: shared_types::time::unix_ms(),
+    }
 }
 
 /// Runs the interpreter until `shutdown` is set.
@@ -87,6 +83,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
         "interpreter ready: TelegramState 254 READY_FOR_INITIALIZATION"
     );
     let mut last_state = server.telegram_state();
+    let mut control_published_ms = 0;
 
     while !shutdown.load(Ordering::Relaxed) {
         bus::wait_for_wakeup(&telegram_wakeup, POLL_INTERVAL)?;
@@ -129,8 +126,13 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
         for c in fx.motion.iter() {
             bus::publish(&commands, *c)?;
         }
-        if let Some(c) = fx.servo {
+        // Only once a command has set the power request: a restarted interpreter must not
+        // switch the drives off by publishing its initial, all-off request.
+        let republish = server.servo_control_set()
+            && t.mono_ms.saturating_sub(control_published_ms) >= CONTROL_REPUBLISH_MS;
+        if let Some(c) = fx.servo.or(republish.then(|| server.servo_control())) {
             bus::publish(&control, c)?;
+            control_published_ms = t.mono_ms;
         }
         fx.clear();
         let state = server.telegram_state();
