@@ -171,6 +171,17 @@ impl Bus {
             .map_err(|e| bus_error("create subscriber on", topic, e))
     }
 
+    /// Number of subscribers connected to `topic` now (e.g. whether a consumer process runs).
+    pub fn subscriber_count<T: Debug + ZeroCopySend>(
+        &self,
+        topic: &str,
+    ) -> Result<usize, BusError> {
+        Ok(self
+            .pubsub::<T>(topic)?
+            .dynamic_config()
+            .number_of_subscribers())
+    }
+
     /// A notifier for the wake-up event of `topic`.
     pub fn notifier(&self, topic: &str) -> Result<Notifier<Ipc>, BusError> {
         self.event(topic)?

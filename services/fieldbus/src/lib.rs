@@ -18,7 +18,7 @@ use std::time::Duration;
 
 use shared_types::bus::{Bus, BusError};
 use shared_types::config::Config;
-use shared_types::ipc::{LinkEvent, TELEGRAM_CAPACITY};
+use shared_types::ipc::{LinkEvent, PlcTelegram, TELEGRAM_CAPACITY, topics};
 use shared_types::time::monotonic_ns;
 
 use assembler::{TelegramAssembler, TelegramLengthError};
@@ -188,6 +188,29 @@ impl Gateway {
 }
 
 /// Runs the TCP gateway until `shutdown` becomes true (returns within about 10 ms).
+///
+/// PLC connections are accepted only once the interpreter listens on `srci/p2r`: a PLC that
+/// connected earlier would get no answers and drop the connection.
 pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), FieldbusError> {
-    Gateway::bind(config)?.serve(shutdown)
+    if wait_for_interpreter(config, shutdown)? {
+        Gateway::bind(config)?.serve(shutdown)?;
+    }
+    Ok(())
+}
+
+/// Waits until the interpreter subscribes to the PLC telegrams; false if shut down first.
+fn wait_for_interpreter(config: &Config, shutdown: &AtomicBool) -> Result<bool, FieldbusError> {
+    let bus = Bus::new(&config.main.instance, "fieldbus-start")?;
+    let mut logged = false;
+    while !shutdown.load(Ordering::Relaxed) {
+        if bus.subscriber_count::<PlcTelegram>(topics::P2R)? > 0 {
+            return Ok(true);
+        }
+        if !logged {
+            tracing::info!("waiting for the interpreter before accepting PLC connections");
+            logged = true;
+        }
+        std::thread::sleep(POLL_INTERVAL);
+    }
+    Ok(false)
 }

@@ -1,0 +1,246 @@
+//! Typed views of the response payloads the client reads.
+//!
+//! Decoders take the whole response payload (4-byte header included) and read it through the
+//! generated specification tables; missing tail bytes read as zero.
+
+use shared_types::srci::message::Percent;
+use shared_types::srci::payload::{Field, PayloadReader};
+use shared_types::srci::{supported, tables};
+
+/// A fixed-length CHAR field as text: up to the first NUL, trailing blanks removed.
+fn chars(payload: &[u8], f: Field) -> String {
+    let start = f.offset.min(payload.len());
+    let end = (f.offset + f.size()).min(payload.len());
+    let raw = &payload[start..end];
+    let text = raw.split(|&b| b == 0).next().unwrap_or(&[]);
+    String::from_utf8_lossy(text).trim_end().to_owned()
+}
+
+/// ReadRobotData (9002) response: the robot's identity and capabilities.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RobotData {
+    pub manufacturer: String,
+    pub order_id: String,
+    pub serial_number: String,
+    pub ra_serial_number: String,
+    pub firmware_version: String,
+    pub interpreter_version: String,
+    pub axis_joint_used: u8,
+    pub axis_external_used: u8,
+    pub axis_joint_unit: u8,
+    pub axis_external_unit: u8,
+    /// RCSupportedFunctions bitmap (byte.bit per function).
+    pub supported_functions: [u8; 19],
+    pub robot_id: String,
+    pub interpreter_cycle_time_ms: u16,
+}
+
+impl RobotData {
+    pub fn decode(payload: &[u8]) -> Self {
+        use tables::read_robot_data::response as f;
+        let r = PayloadReader::new(payload);
+        let mut supported_functions = [0u8; 19];
+        for (i, b) in supported_functions.iter_mut().enumerate() {
+            *b = r.u8(f::RC_SUPPORTED_FUNCTIONS.element(i));
+        }
+        Self {
+            manufacturer: chars(payload, f::RC_MANUFACTURER),
+            order_id: chars(payload, f::RC_ORDER_ID),
+            serial_number: chars(payload, f::RC_SERIAL_NUMBER),
+            ra_serial_number: chars(payload, f::RA_SERIAL_NUMBER),
+            firmware_version: chars(payload, f::RC_FIRMWARE_VERSION),
+            interpreter_version: chars(payload, f::RC_INTERPRETER_VERSION),
+            axis_joint_used: r.u8(f::AXIS_JOINT_USED),
+            axis_external_used: r.u8(f::AXIS_EXTERNAL_USED),
+            axis_joint_unit: r.u8(f::AXIS_JOINT_UNIT),
+            axis_external_unit: r.u8(f::AXIS_EXTERNAL_UNIT),
+            supported_functions,
+            robot_id: chars(payload, f::ROBOT_ID),
+            interpreter_cycle_time_ms: r.u16(f::INTERPRETER_CYCLE_TIME),
+        }
+    }
+
+    /// Whether RCSupportedFunctions announces `command_type`.
+    pub fn supports(&self, command_type: u16) -> bool {
+        supported::announces(&self.supported_functions, command_type)
+    }
+}
+
+/// ExchangeConfiguration (9000) response: what the robot reports about the session.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Configuration {
+    pub enabled: bool,
+    /// Entries of the robot's Active Command Register.
+    pub length_acr: u16,
+    pub highest_tool_index: u8,
+    pub highest_frame_index: u8,
+    pub highest_load_index: u8,
+    pub number_of_server_logs: u16,
+}
+
+impl Configuration {
+    pub fn decode(payload: &[u8]) -> Self {
+        use tables::exchange_configuration::response as f;
+        let r = PayloadReader::new(payload);
+        Self {
+            enabled: r.bit(f::ENABLED),
+            length_acr: r.u16(f::LENGTH_ACR),
+            highest_tool_index: r.u8(f::HIGHEST_TOOL_INDEX),
+            highest_frame_index: r.u8(f::HIGHEST_FRAME_INDEX),
+            highest_load_index: r.u8(f::HIGHEST_LOAD_INDEX),
+            number_of_server_logs: r.u16(f::NUMBER_OF_SERVER_LOGS),
+        }
+    }
+}
+
+/// ReadActualPosition (5100) response.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ActualPosition {
+    /// Tool and frame the Cartesian position is given in.
+    pub tool: u8,
+    pub frame: u8,
+    /// X, Y, Z in mm and RX, RY, RZ in degrees.
+    pub cartesian: [f64; 6],
+    /// J1..J6 in degrees.
+    pub joints_deg: [f64; 6],
+}
+
+impl ActualPosition {
+    pub fn decode(payload: &[u8]) -> Self {
+        use tables::read_actual_position::response as f;
+        let r = PayloadReader::new(payload);
+        let read = |fields: [Field; 6]| fields.map(|field| f64::from(r.f32(field)));
+        Self {
+            tool: r.u8(f::TOOL_NO_RETURN),
+            frame: r.u8(f::FRAME_NO_RETURN),
+            cartesian: read([
+                f::ACTUAL_CARTESIAN_POSITION_X,
+                f::ACTUAL_CARTESIAN_POSITION_Y,
+                f::ACTUAL_CARTESIAN_POSITION_Z,
+                f::ACTUAL_CARTESIAN_POSITION_RX,
+                f::ACTUAL_CARTESIAN_POSITION_RY,
+                f::ACTUAL_CARTESIAN_POSITION_RZ,
+            ]),
+            joints_deg: read([
+                f::ACTUAL_JOINT_POSITION_J1,
+                f::ACTUAL_JOINT_POSITION_J2,
+                f::ACTUAL_JOINT_POSITION_J3,
+                f::ACTUAL_JOINT_POSITION_J4,
+                f::ACTUAL_JOINT_POSITION_J5,
+                f::ACTUAL_JOINT_POSITION_J6,
+            ]),
+        }
+    }
+}
+
+/// MoveAxesAbsolute (2101) response: the progress of the move.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MoveProgress {
+    pub invocation_counter: u8,
+    pub origin_id: i16,
+    /// Progress in percent; `None` when the robot sends 0xFFFF (no valid value).
+    pub progress_percent: Option<f64>,
+}
+
+impl MoveProgress {
+    pub fn decode(payload: &[u8]) -> Self {
+        use tables::move_axes_absolute::response as f;
+        let r = PayloadReader::new(payload);
+        Self {
+            invocation_counter: r.u8(f::INVOCATION_COUNTER),
+            origin_id: r.i16(f::ORIGIN_ID),
+            progress_percent: match Percent::from_wire(r.u16(f::PROGRESS)) {
+                Percent::Value(p) => Some(p),
+                Percent::Default => None,
+            },
+        }
+    }
+}
+
+/// The Enabled bit of an EnableRobot (1000) response.
+pub fn robot_enabled(payload: &[u8]) -> bool {
+    PayloadReader::new(payload).bit(tables::enable_robot::response::ENABLED)
+}
+
+/// One robot message delivered by ReadMessages (9001).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RobotMessage {
+    /// MsgID the client acknowledged (1..255).
+    pub msg_id: u8,
+    /// Days since 1990-01-01.
+    pub date: u16,
+    /// Milliseconds since midnight.
+    pub time_ms: u32,
+    /// MsgType: 1 RI, 2 RC, 3 RA, 4 CMD.
+    pub msg_type: u8,
+    pub severity: i8,
+    pub code: u32,
+    pub text: String,
+}
+
+/// The message part of a ReadMessages response.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Messages {
+    pub enabled: bool,
+    pub active_errors: u8,
+    pub active_warnings: u8,
+    /// The delivered message, if MsgID > 0.
+    pub message: Option<RobotMessage>,
+}
+
+impl Messages {
+    pub fn decode(payload: &[u8]) -> Self {
+        use tables::read_messages::response as f;
+        let r = PayloadReader::new(payload);
+        let msg_id = r.u8(f::MSG_ID);
+        Self {
+            enabled: r.bit(f::ENABLED),
+            active_errors: r.u8(f::NUMBER_OF_ACTIVE_ERRORS),
+            active_warnings: r.u8(f::NUMBER_OF_ACTIVE_WARNINGS),
+            message: (msg_id > 0).then(|| RobotMessage {
+                msg_id,
+                date: r.u16(f::DATE),
+                time_ms: r.u32(f::TIME),
+                msg_type: r.u8(f::MSG_TYPE),
+                severity: r.i8(f::SEVERITY),
+                code: r.u32(f::ERROR_CODE),
+                text: chars(payload, f::TEXT),
+            }),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared_types::srci::payload::PayloadWriter;
+
+    #[test]
+    fn robot_data_reads_strings_and_cycle_time() {
+        use tables::read_robot_data::response as f;
+        let mut p = vec![0u8; f::LEN];
+        let mut w = PayloadWriter::new(&mut p);
+        w.set_chars(f::RC_MANUFACTURER, "rc SRCI controller");
+        w.set_u16(f::INTERPRETER_CYCLE_TIME, 8);
+        w.set_bytes(f::RC_SUPPORTED_FUNCTIONS, &[0b0000_0110]);
+        let d = RobotData::decode(&p);
+        assert_eq!(d.manufacturer, "rc SRCI controller");
+        assert_eq!(d.interpreter_cycle_time_ms, 8);
+        assert!(d.supports(tables::enable_robot::TYPE));
+        assert!(!d.supports(tables::group_reset::TYPE));
+        // A truncated response reads as zeros, not a panic.
+        assert_eq!(RobotData::decode(&p[..30]).interpreter_cycle_time_ms, 0);
+    }
+
+    #[test]
+    fn actual_position_reads_joints() {
+        use tables::read_actual_position::response as f;
+        let mut p = vec![0u8; f::LEN];
+        let mut w = PayloadWriter::new(&mut p);
+        w.set_f32(f::ACTUAL_JOINT_POSITION_J2, 90.0);
+        w.set_f32(f::ACTUAL_CARTESIAN_POSITION_Z, 500.5);
+        let a = ActualPosition::decode(&p);
+        assert_eq!(a.joints_deg[1], 90.0);
+        assert_eq!(a.cartesian[2], 500.5);
+    }
+}
