@@ -7,7 +7,7 @@
 use core::fmt::Debug;
 use core::time::Duration;
 
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
@@ -251,13 +251,15 @@ pub fn receive_latest<T: Debug + ZeroCopySend + Copy>(
     Ok(latest)
 }
 
-/// Waits up to `timeout` for a wake-up on `listener`; returns whether one came.
+/// Waits up to `timeout` for a wake-up on `listener`; returns whether one came. A signal
+/// (e.g. SIGTERM asking the process to stop) ends the wait early without an error, so the
+/// caller's loop can look at its shutdown flag.
 pub fn wait_for_wakeup(listener: &Listener<Ipc>, timeout: Duration) -> Result<bool, BusError> {
     let mut woken = false;
-    listener
-        .timed_wait(|_| woken = true, timeout)
-        .map_err(|e| bus_error("wait on", "listener", e))?;
-    Ok(woken)
+    match listener.timed_wait(|_| woken = true, timeout) {
+        Ok(_) | Err(ListenerWaitError::InterruptSignal) => Ok(woken),
+        Err(e) => Err(bus_error("wait on", "listener", e)),
+    }
 }
 
 /// Publishes `value` on `publisher`.

@@ -1,0 +1,225 @@
+//! Test harness: starts `rc run` as real processes on a private instance and TCP port, and
+//! drives it with the PLC-side client over the real TCP gateway transport.
+
+#![allow(dead_code)]
+
+use std::net::{TcpListener, TcpStream};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use plc_client::{CommandStatus, CycleRunner, EngineOptions, Request, RobotTask, TcpTransport};
+use shared_types::srci::message::state;
+
+/// One controller at a time: each runs a 1 kHz servo and planner, and a 2-core machine
+/// shared by several would miss the deadlines these tests check.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+/// A controller (`rc run`) started for one test.
+pub struct Controller {
+    _turn: MutexGuard<'static, ()>,
+    child: Child,
+    pub addr: String,
+    pub instance: String,
+    pub dir: PathBuf,
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+impl Controller {
+    /// Starts a controller with the default configuration.
+    pub fn start(tag: &str) -> Self {
+        Self::start_with(tag, |c| c)
+    }
+
+    /// Starts a controller whose `default.toml` text is edited by `edit` first.
+    pub fn start_with(tag: &str, edit: impl FnOnce(String) -> String) -> Self {
+        let turn = ONE_AT_A_TIME.lock().unwrap_or_else(|p| p.into_inner());
+        let port = free_port();
+        let instance = format!("t{}{}", tag, std::process::id());
+        let dir = std::env::temp_dir().join(format!("rc-test-{instance}"));
+        std::fs::create_dir_all(&dir).expect("test dir");
+        let text = shared_types::config::EMBEDDED_DEFAULT
+            .replace("instance = \"rc\"", &format!("instance = \"{instance}\""))
+            .replace("127.0.0.1:5000", &format!("127.0.0.1:{port}"));
+        let config = dir.join("default.toml");
+        std::fs::write(&config, edit(text)).expect("write config");
+        let log = std::fs::File::create(dir.join("rc.log")).expect("log file");
+        let child = Command::new(env!("CARGO_BIN_EXE_rc"))
+            .args(["run", "--config"])
+            .arg(&config)
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(log)
+            .spawn()
+            .expect("spawn rc run");
+        let c = Self {
+            _turn: turn,
+            child,
+            addr: format!("127.0.0.1:{port}"),
+            instance,
+            dir,
+        };
+        c.wait_for_port();
+        c
+    }
+
+    fn wait_for_port(&self) {
+        let start = Instant::now();
+        while TcpStream::connect(&self.addr).is_err() {
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "controller did not listen on {} within 30 s; log:\n{}",
+                self.addr,
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// The controller's log so far.
+    pub fn log(&self) -> String {
+        std::fs::read_to_string(self.dir.join("rc.log")).unwrap_or_default()
+    }
+
+    /// The pid of `service` from the orchestrator's pid file.
+    pub fn pid_of(&self, service: &str) -> Option<u32> {
+        let dir = std::env::var_os("XDG_RUNTIME_DIR")
+            .filter(|d| !d.is_empty())
+            .map_or_else(|| PathBuf::from("/tmp"), PathBuf::from);
+        let path = dir.join(format!("{}.pids", self.instance));
+        let text = std::fs::read_to_string(path).ok()?;
+        text.lines().find_map(|l| {
+            let (name, pid) = l.split_once(' ')?;
+            (name == service).then(|| pid.trim().parse().ok()).flatten()
+        })
+    }
+
+    /// A PLC client over TCP with default options (8 ms cycle, 256/256, lifesign 50 ms).
+    pub fn client(&self) -> CycleRunner<TcpTransport> {
+        self.client_with(EngineOptions::default())
+    }
+
+    pub fn client_with(&self, options: EngineOptions) -> CycleRunner<TcpTransport> {
+        let transport = TcpTransport::connect(
+            &self.addr,
+            Duration::from_secs(2),
+            Duration::from_millis(100),
+        )
+        .expect("connect to the controller");
+        CycleRunner::new(RobotTask::new(options).expect("engine options"), transport)
+    }
+
+    /// Sends SIGTERM and waits for the exit; returns whether it exited successfully.
+    pub fn stop(&mut self) -> bool {
+        // SAFETY: plain kill(2) on our own child's pid.
+        unsafe { libc::kill(self.child.id() as i32, libc::SIGTERM) };
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(10) {
+            if let Ok(Some(status)) = self.child.try_wait() {
+                return status.success();
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        false
+    }
+}
+
+impl Drop for Controller {
+    fn drop(&mut self) {
+        if matches!(self.child.try_wait(), Ok(None)) {
+            self.stop();
+        }
+    }
+}
+
+/// Runs the start-up chain until the client is initialized.
+pub fn initialize(runner: &mut CycleRunner<TcpTransport>) {
+    plc_client::start_up(runner, Duration::from_secs(10)).expect("SRCI start-up");
+}
+
+/// Submits `request` and runs cycles until it reaches a final state (or `until` says so).
+pub fn execute(
+    runner: &mut CycleRunner<TcpTransport>,
+    request: &Request,
+    timeout: Duration,
+) -> CommandStatus {
+    let handle = runner.task_mut().submit(request).expect("submit");
+    let result = runner.run_until(|t| t.status(handle).is_some_and(|s| s.is_final()), timeout);
+    let status = runner.task().status(handle).cloned().expect("status");
+    result.unwrap_or_else(|e| panic!("{request:?} did not finish: {e}; last status {status:?}"));
+    status
+}
+
+/// Runs cycles until `handle` reaches `state` or a final state.
+pub fn run_until_state(
+    runner: &mut CycleRunner<TcpTransport>,
+    handle: plc_client::CommandHandle,
+    wanted: u8,
+    timeout: Duration,
+) -> CommandStatus {
+    let result = runner.run_until(
+        |t| {
+            t.status(handle)
+                .is_some_and(|s| s.state == wanted || s.is_final())
+        },
+        timeout,
+    );
+    let status = runner.task().status(handle).cloned().expect("status");
+    result.unwrap_or_else(|e| panic!("no state {wanted}: {e}; last status {status:?}"));
+    status
+}
+
+/// GroupReset, EnableRobot (waits for Enabled) and a 100 % override.
+pub fn reset_and_enable(runner: &mut CycleRunner<TcpTransport>) {
+    let reset = execute(runner, &Request::GroupReset, Duration::from_secs(5));
+    assert_eq!(reset.state, state::DONE, "GroupReset: {reset:?}");
+    runner
+        .task_mut()
+        .submit(&Request::EnableRobot { enable: true })
+        .expect("submit EnableRobot");
+    runner
+        .run_until(|t| t.is_enabled(), Duration::from_secs(10))
+        .expect("robot enabled");
+    let o = execute(
+        runner,
+        &Request::ChangeSpeedOverride { percent: 100.0 },
+        Duration::from_secs(5),
+    );
+    assert_eq!(o.state, state::DONE, "ChangeSpeedOverride: {o:?}");
+}
+
+/// Reads the actual joints (degrees).
+pub fn actual_joints(runner: &mut CycleRunner<TcpTransport>) -> [f64; 6] {
+    let s = execute(
+        runner,
+        &Request::ReadActualPosition { tool: 0, frame: 0 },
+        Duration::from_secs(5),
+    );
+    assert_eq!(s.state, state::DONE, "ReadActualPosition: {s:?}");
+    plc_client::response::ActualPosition::decode(&s.response).joints_deg
+}
+
+/// Runs cycles (whatever the client's own state) until `done`; false after `timeout`.
+pub fn cycles_until(
+    runner: &mut CycleRunner<TcpTransport>,
+    mut done: impl FnMut(&RobotTask) -> bool,
+    timeout: Duration,
+) -> bool {
+    let start = Instant::now();
+    while start.elapsed() < timeout {
+        runner.step().expect("telegram exchange");
+        if done(runner.task()) {
+            return true;
+        }
+    }
+    false
+}

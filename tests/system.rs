@@ -1,0 +1,226 @@
+//! System tests: `rc run` as real processes, driven over the TCP gateway transport by the
+//! PLC-side client, checking what a commissioning engineer would check.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use common::{
+    Controller, actual_joints, cycles_until, execute, initialize, reset_and_enable, run_until_state,
+};
+use plc_client::{EngineOptions, MoveAxesAbsolute, Request};
+use shared_types::srci::message::{code, state};
+use shared_types::srci::tables as t;
+use shared_types::srci::telegram::telegram_state as ts;
+
+const HOME: [f64; 6] = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0];
+
+fn max_deviation(a: [f64; 6], b: [f64; 6]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn handshake_enable_and_moves_reach_their_targets() {
+    let c = Controller::start("moves");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    let data = plc.task().robot_data().cloned().expect("ReadRobotData");
+    assert!(data.supports(t::move_axes_absolute::TYPE));
+    assert!(data.supports(t::enable_robot::TYPE));
+    assert!(
+        !data.supports(t::move_linear_absolute::TYPE),
+        "only what is implemented"
+    );
+    assert!(!data.supports(t::group_jog::TYPE));
+    reset_and_enable(&mut plc);
+
+    let start = actual_joints(&mut plc);
+    assert!(
+        max_deviation(start, HOME) < 0.01,
+        "starts at home: {start:?}"
+    );
+    for target in [
+        [20.0, 100.0, 70.0, 80.0, -80.0, 30.0],
+        [-15.0, 80.0, 100.0, 95.0, -100.0, -20.0],
+    ] {
+        let mut m = MoveAxesAbsolute::to(target);
+        m.velocity_rate = Some(80.0);
+        m.acceleration_rate = Some(80.0);
+        let s = execute(
+            &mut plc,
+            &Request::MoveAxesAbsolute(m),
+            Duration::from_secs(15),
+        );
+        assert_eq!((s.state, s.code), (state::DONE, 0), "{s:?}");
+        let reached = actual_joints(&mut plc);
+        assert!(
+            max_deviation(reached, target) < 0.01,
+            "reached {reached:?}, target {target:?}"
+        );
+    }
+    assert!(!plc.task().is_moving());
+}
+
+#[test]
+fn unsupported_command_gets_8f11_and_a_message() {
+    let c = Controller::start("unsup");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    let s = execute(
+        &mut plc,
+        &Request::Raw {
+            command_type: t::move_linear_absolute::TYPE,
+            execution_mode: 0,
+            payload: vec![0; t::move_linear_absolute::request::LEN - 4],
+        },
+        Duration::from_secs(5),
+    );
+    assert_eq!(
+        (s.state, s.code),
+        (state::ERROR, code::NOT_IMPLEMENTED),
+        "{s:?}"
+    );
+    plc.run_for(Duration::from_millis(200)).expect("cycles");
+    let messages = plc.task_mut().take_messages();
+    assert!(
+        messages
+            .iter()
+            .any(|m| m.code == u32::from(code::NOT_IMPLEMENTED)),
+        "ReadMessages delivered the error: {messages:?}"
+    );
+}
+
+#[test]
+fn wrong_telegram_length_gets_163() {
+    let c = Controller::start("len");
+    let mut plc = c.client_with(EngineOptions {
+        header_lengths: Some((128, 256)),
+        ..EngineOptions::default()
+    });
+    // The client answers 163 with RESET and tries again, so the state alternates 163/254;
+    // it never becomes 255.
+    let seen = cycles_until(
+        &mut plc,
+        |t| t.telegram_state() == ts::LENGTH_MISMATCH,
+        Duration::from_secs(2),
+    );
+    assert!(seen, "TelegramState 163 reported");
+    let initialized = cycles_until(
+        &mut plc,
+        |t| t.telegram_state() == ts::INITIALIZED,
+        Duration::from_secs(1),
+    );
+    assert!(!initialized, "never initialized with a wrong length");
+}
+
+#[test]
+fn frozen_plc_lifesign_gets_165_and_stops_motion() {
+    let c = Controller::start("life");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    let target = [60.0, 120.0, 40.0, 60.0, -40.0, 90.0];
+    let mut m = MoveAxesAbsolute::to(target);
+    m.velocity_rate = Some(10.0);
+    let handle = plc
+        .task_mut()
+        .submit(&Request::MoveAxesAbsolute(m))
+        .expect("submit");
+    run_until_state(&mut plc, handle, state::ACTIVE, Duration::from_secs(5));
+    plc.run_for(Duration::from_millis(300)).expect("moving");
+    assert!(plc.task().is_moving(), "the arm moves before the freeze");
+
+    plc.task_mut().set_lifesign_frozen(true);
+    let frozen_at = Instant::now();
+    assert!(
+        cycles_until(
+            &mut plc,
+            |t| t.telegram_state() == ts::LIFESIGN_TIMEOUT,
+            Duration::from_secs(2)
+        ),
+        "TelegramState 165 reported"
+    );
+    let detected = frozen_at.elapsed();
+    assert!(
+        detected < Duration::from_millis(500),
+        "165 after {detected:?}"
+    );
+    assert!(
+        cycles_until(&mut plc, |t| !t.is_moving(), Duration::from_secs(3)),
+        "motion stopped after the lifesign timeout"
+    );
+
+    // A new session (RESET, INITIALIZE) finds the arm standing short of the target.
+    drop(plc);
+    let mut plc = c.client();
+    initialize(&mut plc);
+    let a = actual_joints(&mut plc);
+    plc.run_for(Duration::from_millis(200)).expect("cycles");
+    let b = actual_joints(&mut plc);
+    assert!(max_deviation(a, b) < 1e-3, "standing still: {a:?} vs {b:?}");
+    assert!(
+        max_deviation(a, target) > 1.0,
+        "stopped before the target: {a:?}"
+    );
+}
+
+#[test]
+fn planner_killed_during_a_move_stops_the_arm_and_recovers_after_group_reset() {
+    let c = Controller::start("kill");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    let target = [-60.0, 130.0, 30.0, 50.0, -30.0, -90.0];
+    let mut m = MoveAxesAbsolute::to(target);
+    m.velocity_rate = Some(10.0);
+    let handle = plc
+        .task_mut()
+        .submit(&Request::MoveAxesAbsolute(m))
+        .expect("submit");
+    run_until_state(&mut plc, handle, state::ACTIVE, Duration::from_secs(5));
+    plc.run_for(Duration::from_millis(300)).expect("moving");
+    let planner = c.pid_of("planner").expect("planner pid");
+    // SAFETY: kill(2) on the planner process of our own controller.
+    assert_eq!(unsafe { libc::kill(planner as i32, libc::SIGKILL) }, 0);
+
+    let s = run_until_state(&mut plc, handle, state::DONE, Duration::from_secs(5));
+    assert!(
+        matches!(s.state, state::ERROR | state::ABORTED) && s.code != 0,
+        "the move ends with an error code: {s:?}"
+    );
+    plc.run_until(|t| !t.is_moving(), Duration::from_secs(3))
+        .expect("the servo stops the arm");
+    let restarted = Instant::now();
+    while c.pid_of("planner").is_none_or(|p| p == planner) {
+        assert!(
+            restarted.elapsed() < Duration::from_secs(10),
+            "planner restarted"
+        );
+        plc.run_for(Duration::from_millis(50)).expect("cycles");
+    }
+    let stopped_at = actual_joints(&mut plc);
+    assert!(
+        max_deviation(stopped_at, target) > 1.0,
+        "stopped short of the target"
+    );
+
+    let reset = execute(&mut plc, &Request::GroupReset, Duration::from_secs(10));
+    assert_eq!(
+        reset.state,
+        state::DONE,
+        "GroupReset after the restart: {reset:?}"
+    );
+    let mut m = MoveAxesAbsolute::to(HOME);
+    m.velocity_rate = Some(100.0);
+    let s = execute(
+        &mut plc,
+        &Request::MoveAxesAbsolute(m),
+        Duration::from_secs(15),
+    );
+    assert_eq!((s.state, s.code), (state::DONE, 0), "{s:?}");
+    let reached = actual_joints(&mut plc);
+    assert!(max_deviation(reached, HOME) < 0.01, "{reached:?}");
+}
