@@ -1,1 +1,197 @@
-fn main() {}
+//! `rc`: the SRCI robot controller. One executable, several processes:
+//! - `rc run` starts the orchestrator, which spawns and supervises the services;
+//! - `rc service <name>` is one service process (spawned by `rc run`, or by systemd);
+//! - `rc plc PROGRAM.toml` plays the PLC: runs an SRCI program against a running controller;
+//! - `rc demo` starts a controller, runs the embedded demo program against it and stops it.
+
+mod demo;
+mod plc;
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::{Parser, Subcommand};
+use orchestrator::Service;
+use shared_types::config::Config;
+use tracing_subscriber::EnvFilter;
+
+/// Exit code for a configuration that cannot be loaded.
+const EXIT_CONFIG: u8 = 2;
+
+#[derive(Debug, Parser)]
+#[command(name = "rc", version, about = "SRCI robot controller")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Runs the controller: the orchestrator and every service process.
+    Run {
+        /// Configuration file (default: the embedded config/default.toml).
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+    },
+    /// Runs one service process (normally spawned by `rc run`).
+    Service {
+        #[arg(value_parser = service_parser())]
+        service: Service,
+        /// Configuration file (default: the embedded config/default.toml).
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+    },
+    /// Plays the PLC: runs an SRCI program against a running controller.
+    Plc {
+        /// The program (TOML).
+        program: PathBuf,
+        /// Address of the controller's TCP gateway transport.
+        #[arg(long, default_value = "127.0.0.1:5000")]
+        addr: String,
+        /// Telegram cycle time.
+        #[arg(long, default_value_t = 8)]
+        cycle_ms: u64,
+        /// Lifesign timeout the PLC sets with ExchangeConfiguration.
+        #[arg(long, default_value_t = 50)]
+        lifesign_ms: u16,
+    },
+    /// Starts a controller, runs the demo program against it, prints a summary and stops it.
+    Demo {
+        /// Configuration file for the controller (default: the embedded config/default.toml).
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+    },
+}
+
+fn service_parser() -> impl TypedValueParser<Value = Service> {
+    PossibleValuesParser::new(Service::START_ORDER.map(Service::name))
+        .try_map(|name| name.parse::<Service>())
+}
+
+/// Set by SIGINT, SIGTERM and SIGHUP; every long-running subcommand watches it.
+static SHUTDOWN: AtomicBool = AtomicBool::new(false);
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let outcome = match cli.command {
+        Command::Run { config } => {
+            init_logging("info");
+            with_config(config.as_deref(), |config| {
+                install_shutdown_handler()?;
+                orchestrator::run(config, &SHUTDOWN)?;
+                Ok(true)
+            })
+        }
+        Command::Service { service, config } => {
+            init_logging("info");
+            with_config(config.as_deref(), |config| {
+                install_shutdown_handler()?;
+                run_service(service, config)?;
+                Ok(true)
+            })
+        }
+        Command::Plc {
+            program,
+            addr,
+            cycle_ms,
+            lifesign_ms,
+        } => {
+            init_logging("warn");
+            Ok(plc::run_file(
+                &program,
+                &addr,
+                Duration::from_millis(cycle_ms),
+                lifesign_ms,
+            ))
+        }
+        Command::Demo { config } => {
+            init_logging("warn");
+            with_config(config.as_deref(), demo::run)
+        }
+    };
+    match outcome {
+        Ok(Ok(true)) => ExitCode::SUCCESS,
+        Ok(Ok(false)) => ExitCode::FAILURE,
+        Ok(Err(e)) => {
+            eprintln!("error: {}", describe(&e));
+            ExitCode::FAILURE
+        }
+        Err(config_error) => {
+            eprintln!("error: {config_error}");
+            ExitCode::from(EXIT_CONFIG)
+        }
+    }
+}
+
+/// Loads the configuration and runs `body` with it. The outer error is the configuration's
+/// (exit code 2), the inner result the body's (`Ok(false)`: completed but failed).
+fn with_config(
+    path: Option<&Path>,
+    body: impl FnOnce(&Config) -> anyhow::Result<bool>,
+) -> Result<anyhow::Result<bool>, shared_types::config::ConfigError> {
+    Config::load(path).map(|config| body(&config))
+}
+
+fn run_service(service: Service, config: &Config) -> anyhow::Result<()> {
+    match service {
+        Service::Fieldbus => fieldbus::run(config, &SHUTDOWN)?,
+        Service::Interpreter => interpreter::run(config, &SHUTDOWN)?,
+        Service::Planner => planner::run(config, &SHUTDOWN)?,
+        Service::Servo => servo::run(config, &SHUTDOWN)?,
+    }
+    Ok(())
+}
+
+/// The error and its causes on one line. Causes whose text the message already includes (as
+/// many error types print their source) are not repeated.
+fn describe(error: &anyhow::Error) -> String {
+    error
+        .chain()
+        .skip(1)
+        .fold(error.to_string(), |mut text, cause| {
+            let cause = cause.to_string();
+            if !text.contains(&cause) {
+                text.push_str(": ");
+                text.push_str(&cause);
+            }
+            text
+        })
+}
+
+/// Logs to stderr, filtered by `RUST_LOG` (else `default_level`). iceoryx2 logs on its own
+/// console only errors unless `IOX2_LOG_LEVEL` says otherwise: its start-up notes (e.g. that it
+/// uses its built-in configuration) would repeat in every process.
+fn init_logging(default_level: &str) {
+    iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
+    let filter =
+        EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(default_level));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
+}
+
+fn install_shutdown_handler() -> anyhow::Result<()> {
+    ctrlc::set_handler(|| SHUTDOWN.store(true, Ordering::Relaxed))
+        .context("cannot install the SIGINT/SIGTERM/SIGHUP handler")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn describe_does_not_repeat_causes_the_message_contains() {
+        let io = std::io::Error::other("connection refused");
+        let error = anyhow::Error::new(io).context("cannot connect: connection refused");
+        assert_eq!(describe(&error), "cannot connect: connection refused");
+        let error = anyhow::anyhow!("connection refused").context("program 'demo'");
+        assert_eq!(describe(&error), "program 'demo': connection refused");
+    }
+}
