@@ -1,0 +1,414 @@
+//! The per-tick motion state machine: takes the servo feedback and new motion commands,
+//! keeps the primary sequence, and produces the setpoint window and the planner status.
+//!
+//! Timeline: the feedback of servo tick `k` arrives, the executor commits the point for tick
+//! `k + 1` and looks ahead to `k + SETPOINT_WINDOW`. When wake-ups were missed, the servo
+//! used the look-ahead points of the last window; the executor replays those ticks first, so
+//! its state is always the one the servo followed.
+
+use shared_types::config::Config;
+use shared_types::ipc::{
+    AXES, DriveState, JOB_EVENTS, JobEvent, JointPoint, MotionCommand, MotionCommandKind,
+    MotionStatus, SETPOINT_WINDOW, ServoFeedback, ServoSetpoint,
+};
+use shared_types::srci::message::{code, state};
+
+use crate::events::EventLog;
+use crate::joint_move::{self, JointMove};
+use crate::kinematics::Kinematics;
+use crate::motion::{Dynamics, Motion, Phase};
+use crate::queue::MoveQueue;
+
+/// Joint speed (rad/s) below which the servo feedback counts as standing still.
+const REST_VELOCITY: f64 = 1e-3;
+/// Joint speed (rad/s) below which the commanded motion counts as standing.
+const MOVING_VELOCITY: f64 = 1e-9;
+/// Servo periods accepted from the feedback; outside, the configured period is used.
+const PERIOD_RANGE_NS: core::ops::RangeInclusive<u64> = 10_000..=100_000_000;
+/// Room for waiting events beyond those of the queued moves.
+const EVENT_SLACK: usize = 256;
+
+/// The motion state machine of one planner process.
+pub struct Executor {
+    dynamics: Dynamics,
+    kinematics: Kinematics,
+    /// Configured interpolation period, s.
+    period_s: f64,
+    motion: Motion,
+    queue: MoveQueue,
+    /// Whether the executor commands the servo (it publishes setpoints only then).
+    synced: bool,
+    /// Servo tick of `motion.point`.
+    tick: u64,
+    servo_instance: u64,
+    last_fault: u16,
+    override_target: f64,
+    /// A GroupStop waiting for the arm to stand still.
+    pending_stop: Option<u32>,
+    /// `(issuer, seq)` of the newest accepted command.
+    accepted: Option<(u64, u64)>,
+    events: EventLog,
+    status: MotionStatus,
+}
+
+impl Executor {
+    /// An executor for the robot and planner settings of `config`; `instance` identifies
+    /// this planner process in its status.
+    pub fn new(config: &Config, instance: u64) -> Self {
+        let queue_length = usize::from(config.main.planner.queue_length);
+        // The interpreter starts with the same override and sends every change.
+        let override_fraction = config.main.interpreter.initial_override_percent / 100.0;
+        let status = MotionStatus {
+            instance,
+            tick: 0,
+            acked_seq: 0,
+            acked_issuer: 0,
+            event_head: 0,
+            events: [JobEvent::default(); JOB_EVENTS],
+            active_job: 0,
+            queued_jobs: 0,
+            active_progress: 0.0,
+            joints_rad: [0.0; AXES],
+            joint_velocities: [0.0; AXES],
+            flange_pose: [0.0; 6],
+            override_fraction,
+            moving: false,
+            accelerating: false,
+            decelerating: false,
+            constant_velocity: false,
+            error_code: 0,
+            reserved: 0,
+        };
+        Self {
+            dynamics: Dynamics {
+                limits: config.robot.limits_rad(),
+                override_reserve: config.main.planner.override_reserve,
+            },
+            kinematics: Kinematics::new(&config.robot.kinematics),
+            period_s: config.main.servo.period_us as f64 * 1e-6,
+            motion: Motion::at_rest([0.0; AXES], override_fraction),
+            queue: MoveQueue::with_capacity(queue_length),
+            synced: false,
+            tick: 0,
+            servo_instance: 0,
+            last_fault: 0,
+            override_target: override_fraction,
+            pending_stop: None,
+            accepted: None,
+            // Bursts end at most the whole queue plus a few commands per move.
+            events: EventLog::with_capacity(4 * queue_length + EVENT_SLACK),
+            status,
+        }
+    }
+
+    /// The status after the last [`step`](Self::step).
+    pub fn status(&self) -> &MotionStatus {
+        &self.status
+    }
+
+    /// Job events lost because too many waited for the status ring.
+    pub fn dropped_events(&self) -> u64 {
+        self.events.dropped()
+    }
+
+    /// Whether the executor commands the servo (it stays silent until the arm stands still
+    /// after a start or a loss of synchronisation).
+    pub fn is_commanding(&self) -> bool {
+        self.synced
+    }
+
+    /// One planner cycle for the servo tick of `feedback`: applies `commands` (in order) and
+    /// returns the setpoint window, or `None` while the executor must not command the servo.
+    pub fn step(
+        &mut self,
+        feedback: &ServoFeedback,
+        commands: &[MotionCommand],
+    ) -> Option<ServoSetpoint> {
+        let dt = if PERIOD_RANGE_NS.contains(&feedback.period_ns) {
+            feedback.period_ns as f64 * 1e-9
+        } else {
+            self.period_s
+        };
+        let drive = DriveState::from_wire(feedback.state);
+        self.watch_drives(feedback, drive);
+        self.follow_servo_clock(feedback, dt);
+        self.track_arm(feedback, drive);
+        for command in commands {
+            self.accept(command, drive);
+        }
+        self.finish_stop();
+        if self.synced && drive.is_enabled() {
+            if self.tick <= feedback.tick {
+                self.advance(dt);
+                self.finish_stop();
+            }
+        } else {
+            self.tick = feedback.tick.wrapping_add(1);
+        }
+        self.events.publish(&mut self.status, dt);
+        self.update_status(feedback);
+        self.synced.then(|| self.window(dt))
+    }
+
+    /// Keeps `motion` on the servo's tick: replays the ticks the servo took from the last
+    /// window, and gives up control when the servo cannot have followed it.
+    fn follow_servo_clock(&mut self, feedback: &ServoFeedback, dt: f64) {
+        let restarted = feedback.instance != self.servo_instance;
+        self.servo_instance = feedback.instance;
+        if !self.synced {
+            return;
+        }
+        let next = feedback.tick.wrapping_add(1);
+        if restarted || next < self.tick {
+            self.lose_sync();
+            return;
+        }
+        // 1 in the steady state, 0 for the same feedback again.
+        let behind = next - self.tick;
+        if behind > SETPOINT_WINDOW as u64 {
+            // The servo ran past the last window; a standing arm just stayed where it was.
+            if self.is_busy() {
+                self.lose_sync();
+            } else {
+                self.tick = feedback.tick;
+            }
+            return;
+        }
+        for _ in 1..behind {
+            self.advance(dt);
+        }
+    }
+
+    /// Ends the moves in flight on a new drive fault or when the drives are not enabled.
+    fn watch_drives(&mut self, feedback: &ServoFeedback, drive: DriveState) {
+        let fault = feedback.fault_code;
+        if fault != 0 && fault != self.last_fault {
+            // The drives stop the arm themselves; take over again once it stands.
+            self.end_all(state::ERROR, fault);
+            self.status.error_code = fault;
+            self.synced = false;
+        }
+        self.last_fault = fault;
+        if !drive.is_enabled() {
+            self.end_all(state::ERROR, code::INTERRUPTED_NOT_ENABLED);
+        }
+    }
+
+    /// Follows the arm while the executor does not command it, and takes over once the arm
+    /// stands still.
+    fn track_arm(&mut self, feedback: &ServoFeedback, drive: DriveState) {
+        if drive == DriveState::Stopping && self.synced {
+            // The servo brakes by itself: our setpoints did not reach it in time.
+            self.lose_sync();
+        }
+        if !drive.is_enabled() || !self.synced {
+            // Track the arm so that taking over (or enabling) never jumps.
+            let at_rest = feedback.q.iter().all(|q| q.is_finite())
+                && feedback.qd.iter().all(|v| v.abs() <= REST_VELOCITY);
+            self.motion = Motion::at_rest(feedback.q, self.override_target);
+            self.tick = feedback.tick;
+            self.synced = at_rest && drive != DriveState::Stopping;
+        }
+    }
+
+    fn accept(&mut self, command: &MotionCommand, drive: DriveState) {
+        if let Some((issuer, seq)) = self.accepted
+            && issuer == command.issuer
+            && command.seq <= seq
+        {
+            return;
+        }
+        self.accepted = Some((command.issuer, command.seq));
+        self.status.acked_issuer = command.issuer;
+        self.status.acked_seq = command.seq;
+        let job = command.job;
+        match MotionCommandKind::from_wire(command.kind) {
+            Some(MotionCommandKind::MoveAxes) => self.accept_move(command, drive),
+            Some(MotionCommandKind::Stop) => {
+                self.stop(code::ABORTED_BY_GROUP_STOP);
+                if let Some(previous) = self.pending_stop.replace(job) {
+                    self.report(previous, state::ABORTED, code::ABORTED_BY_GROUP_STOP);
+                }
+            }
+            Some(MotionCommandKind::Halt) => self.stop(code::ABORTED_BY_GROUP_STOP),
+            Some(MotionCommandKind::Override) => {
+                let fraction = command.override_fraction;
+                if (0.0..=1.0).contains(&fraction) {
+                    self.override_target = fraction;
+                    self.report(job, state::DONE, 0);
+                } else {
+                    self.report(job, state::ERROR, code::INVALID_OVERRIDE);
+                }
+            }
+            Some(MotionCommandKind::Reset) => {
+                self.status.error_code = 0;
+                self.report(job, state::DONE, 0);
+            }
+            None => self.report(job, state::ERROR, code::NOT_IMPLEMENTED),
+        }
+    }
+
+    fn accept_move(&mut self, command: &MotionCommand, drive: DriveState) {
+        let job = command.job;
+        if let Err(e) = joint_move::validate(command, &self.dynamics.limits) {
+            return self.report(job, state::ERROR, e.code());
+        }
+        if self.status.error_code != 0 {
+            return self.report(job, state::ERROR, code::DISABLED_DUE_TO_ERROR);
+        }
+        if !drive.is_enabled() {
+            return self.report(job, state::ERROR, code::ROBOT_DISABLED);
+        }
+        // Check the requested duration from where the move will most likely start; the
+        // move is planned again when it starts.
+        let start = if command.aborting {
+            self.motion.point.q
+        } else {
+            self.sequence_end()
+        };
+        let reserve = self.dynamics.override_reserve;
+        if let Err(e) = JointMove::plan(start, command, &self.dynamics.limits, reserve) {
+            return self.report(job, state::ERROR, e.code());
+        }
+        if command.aborting {
+            self.stop(code::ABORTED_BY_MOTION_COMMAND);
+        }
+        match self.queue.push(*command) {
+            Ok(()) => self.report(job, state::BUFFERED, 0),
+            Err(_) => self.report(job, state::ERROR, code::INTERNAL_ERROR),
+        }
+    }
+
+    /// Where the arm will stand when the primary sequence has been executed.
+    fn sequence_end(&self) -> [f64; AXES] {
+        match (self.queue.back(), self.motion.phase) {
+            (Some(last), _) => last.joints_rad,
+            (None, Phase::Running { plan, .. }) => plan.target(),
+            (None, _) => self.motion.point.q,
+        }
+    }
+
+    /// Brakes the running move on its path and ends it and every buffered move ABORTED.
+    fn stop(&mut self, reason: u16) {
+        if let Some(job) = self.motion.brake() {
+            self.report(job, state::ABORTED, reason);
+        }
+        while let Some(command) = self.queue.pop_front() {
+            self.report(command.job, state::ABORTED, reason);
+        }
+    }
+
+    /// Ends the running and every buffered move with `state` and `reason`, leaving the arm
+    /// where it is commanded now.
+    fn end_all(&mut self, state: u8, reason: u16) {
+        if let Some(job) = self.motion.running_job() {
+            self.report(job, state, reason);
+        }
+        self.motion.phase = Phase::Idle;
+        while let Some(command) = self.queue.pop_front() {
+            self.report(command.job, state, reason);
+        }
+    }
+
+    /// Gives up commanding the servo until the arm stands still again. Moves in flight
+    /// cannot continue: they end with a motion error that only a reset clears.
+    fn lose_sync(&mut self) {
+        self.synced = false;
+        if self.motion.running_job().is_some() || !self.queue.is_empty() {
+            self.end_all(state::ERROR, code::MOTION_ERROR);
+            self.status.error_code = code::MOTION_ERROR;
+        }
+        self.motion.phase = Phase::Idle;
+    }
+
+    fn is_busy(&self) -> bool {
+        self.motion.phase != Phase::Idle || !self.queue.is_empty()
+    }
+
+    /// A pending GroupStop is done once the commanded arm stands.
+    fn finish_stop(&mut self) {
+        if self.synced
+            && self.motion.phase == Phase::Idle
+            && let Some(job) = self.pending_stop.take()
+        {
+            self.report(job, state::DONE, 0);
+        }
+    }
+
+    /// Commits the next tick of the real motion: events are reported, started moves leave
+    /// the queue.
+    fn advance(&mut self, dt: f64) {
+        let mut cursor = 0;
+        let events = &mut self.events;
+        self.motion.advance(
+            &self.dynamics,
+            &self.queue,
+            &mut cursor,
+            dt,
+            self.override_target,
+            &mut |job, state, code| events.push(job, state, code),
+        );
+        for _ in 0..cursor {
+            self.queue.pop_front();
+        }
+        self.tick = self.tick.wrapping_add(1);
+    }
+
+    /// The committed point and the points a copy of the motion takes in the following ticks.
+    fn window(&self, dt: f64) -> ServoSetpoint {
+        let mut ahead = self.motion;
+        let mut cursor = 0;
+        let mut points = [JointPoint::default(); SETPOINT_WINDOW];
+        points[0] = ahead.point;
+        for point in points.iter_mut().skip(1) {
+            ahead.advance(
+                &self.dynamics,
+                &self.queue,
+                &mut cursor,
+                dt,
+                self.override_target,
+                &mut |_, _, _| {},
+            );
+            *point = ahead.point;
+        }
+        ServoSetpoint {
+            planner_instance: self.status.instance,
+            first_tick: self.tick,
+            points,
+        }
+    }
+
+    fn report(&mut self, job: u32, state: u8, code: u16) {
+        self.events.push(job, state, code);
+    }
+
+    fn update_status(&mut self, feedback: &ServoFeedback) {
+        let point = &self.motion.point;
+        let s = &mut self.status;
+        s.tick = feedback.tick;
+        match self.motion.phase {
+            Phase::Running { job, .. } => {
+                s.active_job = job;
+                s.active_progress = 100.0 * self.motion.path_position;
+            }
+            _ => {
+                s.active_job = 0;
+                s.active_progress = 0.0;
+            }
+        }
+        s.queued_jobs = u32::try_from(self.queue.len()).unwrap_or(u32::MAX);
+        s.joints_rad = point.q;
+        s.joint_velocities = point.qd;
+        s.flange_pose = self.kinematics.flange_pose(&point.q);
+        s.override_fraction = self.override_target;
+        // The sign of q̇·q̈ tells speeding up from slowing down along the straight joint path.
+        let power: f64 = point.qd.iter().zip(&point.qdd).map(|(v, a)| v * a).sum();
+        s.moving = point.qd.iter().any(|v| v.abs() > MOVING_VELOCITY);
+        s.accelerating = s.moving && power > 1e-9;
+        s.decelerating = s.moving && power < -1e-9;
+        s.constant_velocity = s.moving && !s.accelerating && !s.decelerating;
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,775 @@
+//! The executor against a simulated servo that follows every setpoint exactly.
+
+use super::*;
+use shared_types::config::JointLimitsRad;
+
+const DT: f64 = 1e-3;
+const ISSUER: u64 = 77;
+/// Relative slack on the limits for rounding.
+const SLACK: f64 = 1e-6;
+
+fn config() -> Config {
+    Config::load(None).expect("embedded configuration")
+}
+
+/// A servo that applies the first point of each window, and the commands it was sent.
+struct Rig {
+    executor: Executor,
+    feedback: ServoFeedback,
+    limits: JointLimitsRad,
+    /// The latest setpoint window, if any.
+    window: Option<ServoSetpoint>,
+    /// Every point the servo applied.
+    trace: Vec<JointPoint>,
+    events: Vec<JobEvent>,
+    seen: u64,
+    seq: u64,
+}
+
+impl Rig {
+    fn new() -> Self {
+        let cfg = config();
+        let home = cfg.robot.home_deg.map(f64::to_radians);
+        let mut rig = Self {
+            executor: Executor::new(&cfg, 0xABCD),
+            feedback: ServoFeedback {
+                instance: 5,
+                tick: 100,
+                time_ns: 0,
+                period_ns: 1_000_000,
+                q: home,
+                qd: [0.0; AXES],
+                state: DriveState::Holding as u8,
+                reserved: 0,
+                fault_code: 0,
+                reserved2: 0,
+                control_seq: 0,
+                setpoint_misses: 0,
+                overruns: 0,
+            },
+            limits: cfg.robot.limits_rad(),
+            window: None,
+            trace: Vec::new(),
+            events: Vec::new(),
+            seen: 0,
+            seq: 0,
+        };
+        rig.step(&[]);
+        assert!(
+            rig.window.is_some(),
+            "an enabled arm at rest is commanded at once"
+        );
+        rig
+    }
+
+    fn command(&mut self, kind: MotionCommandKind, job: u32) -> MotionCommand {
+        self.seq += 1;
+        let mut c = MotionCommand::new(kind);
+        c.seq = self.seq;
+        c.issuer = ISSUER;
+        c.job = job;
+        c
+    }
+
+    fn move_to(&mut self, job: u32, target: [f64; AXES]) -> MotionCommand {
+        let mut c = self.command(MotionCommandKind::MoveAxes, job);
+        c.joints_rad = target;
+        c
+    }
+
+    /// One planner step for the current feedback, then the servo executes the next tick.
+    fn step(&mut self, commands: &[MotionCommand]) {
+        self.window = self.executor.step(&self.feedback, commands);
+        self.collect_events();
+        self.feedback.tick += 1;
+        if let Some(w) = &self.window {
+            assert_eq!(w.first_tick, self.feedback.tick);
+            assert_eq!(w.planner_instance, 0xABCD);
+            self.apply(w.points[0]);
+        }
+    }
+
+    /// The servo executes the next tick from the last window, without a planner step.
+    fn step_without_planner(&mut self) {
+        let w = self.window.expect("a window");
+        self.feedback.tick += 1;
+        let i = usize::try_from(self.feedback.tick - w.first_tick).unwrap();
+        self.apply(w.points[i]);
+    }
+
+    fn apply(&mut self, p: JointPoint) {
+        self.feedback.q = p.q;
+        self.feedback.qd = p.qd;
+        self.feedback.state = DriveState::Following as u8;
+        self.trace.push(p);
+    }
+
+    fn collect_events(&mut self) {
+        let s = self.executor.status();
+        assert!(s.event_head - self.seen <= JOB_EVENTS as u64, "events lost");
+        for n in self.seen + 1..=s.event_head {
+            let e = s.events[(n % JOB_EVENTS as u64) as usize];
+            assert_eq!(e.number, n);
+            self.events.push(e);
+        }
+        self.seen = s.event_head;
+    }
+
+    fn run_until(&mut self, ticks: usize, done: impl Fn(&Self) -> bool) {
+        for _ in 0..ticks {
+            if done(self) {
+                return;
+            }
+            self.step(&[]);
+        }
+        panic!("condition not reached in {ticks} ticks");
+    }
+
+    fn final_state(&self, job: u32) -> Option<(u8, u16)> {
+        self.events
+            .iter()
+            .filter(|e| e.job == job)
+            .map(|e| (e.state, e.code))
+            .find(|(s, _)| state::is_final(*s))
+    }
+
+    fn states_of(&self, job: u32) -> Vec<(u8, u16)> {
+        self.events
+            .iter()
+            .filter(|e| e.job == job)
+            .map(|e| (e.state, e.code))
+            .collect()
+    }
+
+    fn is_final(&self, job: u32) -> bool {
+        self.final_state(job).is_some()
+    }
+
+    /// Joint velocity and acceleration limits on the reported values and on the finite
+    /// differences of the applied positions.
+    fn check_limits(&self) {
+        let l = &self.limits;
+        for p in &self.trace {
+            for i in 0..AXES {
+                assert!(p.qd[i].abs() <= l.velocity[i] * (1.0 + SLACK), "qd {p:?}");
+                assert!(
+                    p.qdd[i].abs() <= l.acceleration[i] * (1.0 + SLACK),
+                    "qdd {p:?}"
+                );
+            }
+        }
+        for w in self.trace.windows(3) {
+            for i in 0..AXES {
+                let v = (w[2].q[i] - w[1].q[i]) / DT;
+                let a = (w[2].q[i] - 2.0 * w[1].q[i] + w[0].q[i]) / (DT * DT);
+                assert!(
+                    v.abs() <= l.velocity[i] * (1.0 + SLACK) + 1e-9,
+                    "v {v} joint {i}"
+                );
+                assert!(
+                    a.abs() <= l.acceleration[i] * (1.0 + SLACK) + 1e-6,
+                    "a {a} joint {i}"
+                );
+            }
+        }
+    }
+
+    /// Every applied point since `from` lies on the segment from `start` to `target`.
+    fn check_on_line(&self, from: usize, start: [f64; AXES], target: [f64; AXES]) {
+        let lead = (0..AXES)
+            .max_by(|&a, &b| {
+                (target[a] - start[a])
+                    .abs()
+                    .total_cmp(&(target[b] - start[b]).abs())
+            })
+            .unwrap();
+        for p in &self.trace[from..] {
+            let s = (p.q[lead] - start[lead]) / (target[lead] - start[lead]);
+            assert!((-1e-12..=1.0 + 1e-12).contains(&s), "off the segment: {s}");
+            for i in 0..AXES {
+                let expected = start[i] + s * (target[i] - start[i]);
+                assert!((p.q[i] - expected).abs() < 1e-9, "joint {i} off the line");
+            }
+        }
+    }
+}
+
+fn home() -> [f64; AXES] {
+    config().robot.home_deg.map(f64::to_radians)
+}
+
+fn target_a() -> [f64; AXES] {
+    let h = home();
+    [
+        h[0] + 1.0,
+        h[1] - 0.5,
+        h[2] + 0.3,
+        h[3],
+        h[4] + 0.8,
+        h[5] - 2.0,
+    ]
+}
+
+#[test]
+fn a_move_reaches_its_target_exactly_within_the_limits() {
+    let mut rig = Rig::new();
+    let start = rig.feedback.q;
+    let target = target_a();
+    let c = rig.move_to(1, target);
+    rig.step(&[c]);
+    rig.run_until(10_000, |r| r.is_final(1));
+    assert_eq!(
+        rig.states_of(1),
+        vec![(state::BUFFERED, 0), (state::ACTIVE, 0), (state::DONE, 0)]
+    );
+    assert_eq!(rig.feedback.q, target);
+    assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+    rig.check_limits();
+    rig.check_on_line(0, start, target);
+    // Jerk of the commanded acceleration stays within the limit too.
+    for w in rig.trace.windows(2) {
+        for i in 0..AXES {
+            let jerk = (w[1].qdd[i] - w[0].qdd[i]).abs() / DT;
+            assert!(jerk <= rig.limits.jerk[i] * (1.0 + SLACK), "jerk {jerk}");
+        }
+    }
+    let s = rig.executor.status();
+    assert_eq!((s.active_job, s.queued_jobs, s.moving), (0, 0, false));
+    assert_eq!(s.acked_seq, c.seq);
+    assert_eq!(s.acked_issuer, ISSUER);
+    assert_eq!(s.instance, 0xABCD);
+    assert_eq!(
+        s.flange_pose,
+        Kinematics::new(&config().robot.kinematics).flange_pose(&target)
+    );
+}
+
+#[test]
+fn all_joints_start_and_arrive_together() {
+    let mut rig = Rig::new();
+    let target = target_a();
+    let c = rig.move_to(1, target);
+    rig.step(&[c]);
+    rig.run_until(10_000, |r| r.is_final(1));
+    let moving: Vec<usize> = (0..AXES).filter(|&i| target[i] != home()[i]).collect();
+    let first = |i: usize| rig.trace.iter().position(|p| p.qd[i] != 0.0).unwrap();
+    let last = |i: usize| rig.trace.iter().rposition(|p| p.qd[i] != 0.0).unwrap();
+    for &i in &moving {
+        assert_eq!(first(i), first(moving[0]));
+        assert_eq!(last(i), last(moving[0]));
+    }
+    // The slowest joint sets the pace: some joint reaches its velocity limit.
+    let peak = (0..AXES)
+        .map(|i| {
+            rig.trace.iter().map(|p| p.qd[i].abs()).fold(0.0, f64::max) / rig.limits.velocity[i]
+        })
+        .fold(0.0, f64::max);
+    assert!(peak > 0.999, "{peak}");
+}
+
+#[test]
+fn moves_run_in_order_with_an_exact_stop_between() {
+    let mut rig = Rig::new();
+    let mut second = home();
+    second[0] -= 0.2;
+    let a = rig.move_to(1, target_a());
+    let b = rig.move_to(2, second);
+    rig.step(&[a, b]);
+    assert_eq!(rig.executor.status().queued_jobs, 1);
+    rig.run_until(10_000, |r| r.is_final(1));
+    assert_eq!(rig.feedback.q, target_a());
+    assert!(!rig.is_final(2));
+    rig.run_until(10_000, |r| r.is_final(2));
+    assert_eq!(rig.feedback.q, second);
+    assert_eq!(rig.final_state(2), Some((state::DONE, 0)));
+    rig.check_limits();
+}
+
+#[test]
+fn override_changes_keep_the_path_and_the_limits() {
+    let mut rig = Rig::new();
+    let start = rig.feedback.q;
+    let target = target_a();
+    let c = rig.move_to(1, target);
+    rig.step(&[c]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 30.0);
+    let mut slow = rig.command(MotionCommandKind::Override, 2);
+    slow.override_fraction = 0.3;
+    rig.step(&[slow]);
+    assert_eq!(rig.final_state(2), Some((state::DONE, 0)));
+    assert_eq!(rig.executor.status().override_fraction, 0.3);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 60.0);
+    let mut fast = rig.command(MotionCommandKind::Override, 3);
+    fast.override_fraction = 1.0;
+    rig.step(&[fast]);
+    rig.run_until(10_000, |r| r.is_final(1));
+    assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
+    assert_eq!(rig.feedback.q, target);
+    rig.check_limits();
+    rig.check_on_line(0, start, target);
+}
+
+#[test]
+fn override_zero_halts_on_the_path_and_the_move_stays_active() {
+    let mut rig = Rig::new();
+    let start = rig.feedback.q;
+    // Long enough for the override ramp (only the reserve decelerates it) to halt it.
+    let mut target = target_a();
+    target[0] = start[0] + 5.0;
+    let c = rig.move_to(1, target);
+    rig.step(&[c]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 5.0);
+    let mut halt = rig.command(MotionCommandKind::Override, 2);
+    halt.override_fraction = 0.0;
+    rig.step(&[halt]);
+    rig.run_until(10_000, |r| !r.executor.status().moving);
+    let held = rig.feedback.q;
+    for _ in 0..500 {
+        rig.step(&[]);
+    }
+    assert_eq!(rig.feedback.q, held);
+    let s = rig.executor.status();
+    assert_eq!(s.active_job, 1);
+    assert!(s.active_progress > 5.0 && s.active_progress < 100.0);
+    assert_eq!(
+        rig.states_of(1),
+        vec![(state::BUFFERED, 0), (state::ACTIVE, 0)]
+    );
+    let mut resume = rig.command(MotionCommandKind::Override, 3);
+    resume.override_fraction = 1.0;
+    rig.step(&[resume]);
+    rig.run_until(10_000, |r| r.is_final(1));
+    assert_eq!(rig.feedback.q, target);
+    rig.check_limits();
+    rig.check_on_line(0, start, target);
+}
+
+#[test]
+fn stop_brakes_on_the_path_within_the_limits_and_aborts_everything() {
+    let mut rig = Rig::new();
+    let start = rig.feedback.q;
+    let target = target_a();
+    let a = rig.move_to(1, target);
+    let b = rig.move_to(2, home());
+    rig.step(&[a, b]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 50.0);
+    assert!(rig.executor.status().constant_velocity || rig.executor.status().decelerating);
+    let stop = rig.command(MotionCommandKind::Stop, 3);
+    rig.step(&[stop]);
+    let abort = (state::ABORTED, code::ABORTED_BY_GROUP_STOP);
+    assert_eq!(rig.final_state(1), Some(abort));
+    assert_eq!(rig.final_state(2), Some(abort));
+    assert!(!rig.is_final(3), "the stop ends only when the arm stands");
+    assert!(rig.executor.status().decelerating);
+    rig.run_until(10_000, |r| r.is_final(3));
+    assert_eq!(rig.final_state(3), Some((state::DONE, 0)));
+    assert!(!rig.executor.status().moving);
+    assert_ne!(rig.feedback.q, target);
+    rig.check_limits();
+    rig.check_on_line(0, start, target);
+    // Standing: the same position from now on.
+    let stood = rig.feedback.q;
+    rig.step(&[]);
+    assert_eq!(rig.feedback.q, stood);
+}
+
+#[test]
+fn stop_of_a_standing_arm_is_done_at_once() {
+    let mut rig = Rig::new();
+    let stop = rig.command(MotionCommandKind::Stop, 9);
+    rig.step(&[stop]);
+    assert_eq!(rig.final_state(9), Some((state::DONE, 0)));
+}
+
+#[test]
+fn halt_stops_like_a_stop_without_an_event_of_its_own() {
+    let mut rig = Rig::new();
+    let c = rig.move_to(1, target_a());
+    rig.step(&[c]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 20.0);
+    let halt = rig.command(MotionCommandKind::Halt, 0);
+    rig.step(&[halt]);
+    assert_eq!(
+        rig.final_state(1),
+        Some((state::ABORTED, code::ABORTED_BY_GROUP_STOP))
+    );
+    rig.run_until(10_000, |r| !r.executor.status().moving);
+    assert!(rig.events.iter().all(|e| e.job != 0));
+    rig.check_limits();
+}
+
+#[test]
+fn an_aborting_move_stops_the_running_one_and_starts_from_rest() {
+    let mut rig = Rig::new();
+    let a = rig.move_to(1, target_a());
+    let queued = rig.move_to(2, home());
+    rig.step(&[a, queued]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 50.0);
+    let mut other = home();
+    other[1] += 0.4;
+    let mut b = rig.move_to(3, other);
+    b.aborting = true;
+    rig.step(&[b]);
+    let abort = (state::ABORTED, code::ABORTED_BY_MOTION_COMMAND);
+    assert_eq!(rig.final_state(1), Some(abort));
+    assert_eq!(rig.final_state(2), Some(abort));
+    assert_eq!(rig.states_of(3), vec![(state::BUFFERED, 0)]);
+    rig.run_until(10_000, |r| r.states_of(3).len() > 1);
+    // Started only once the arm stood.
+    let start = rig.trace.len() - 1;
+    assert_eq!(rig.trace[start - 1].qd, [0.0; AXES]);
+    let stood = rig.trace[start - 1].q;
+    rig.run_until(10_000, |r| r.is_final(3));
+    assert_eq!(
+        rig.states_of(3),
+        vec![(state::BUFFERED, 0), (state::ACTIVE, 0), (state::DONE, 0)]
+    );
+    assert_eq!(rig.feedback.q, other);
+    rig.check_limits();
+    rig.check_on_line(start, stood, other);
+}
+
+#[test]
+fn targets_outside_the_limits_are_rejected_before_any_motion() {
+    let mut rig = Rig::new();
+    let limits = rig.limits;
+    let mut low = home();
+    low[1] = limits.min[1] - 0.01;
+    let mut high = home();
+    high[2] = limits.max[2] + 0.01;
+    let a = rig.move_to(1, low);
+    let b = rig.move_to(2, high);
+    rig.step(&[a, b]);
+    assert_eq!(
+        rig.final_state(1),
+        Some((state::ERROR, code::SW_LIMIT_LOWER))
+    );
+    assert_eq!(
+        rig.final_state(2),
+        Some((state::ERROR, code::SW_LIMIT_UPPER))
+    );
+    assert_eq!(rig.states_of(1).len(), 1);
+    for _ in 0..10 {
+        rig.step(&[]);
+    }
+    assert!(
+        rig.trace
+            .iter()
+            .all(|p| p.q == home() && p.qd == [0.0; AXES])
+    );
+    assert_eq!(rig.executor.status().error_code, 0);
+}
+
+#[test]
+fn a_duplicate_sequence_number_is_ignored_and_a_new_issuer_starts_over() {
+    let mut rig = Rig::new();
+    let c = rig.move_to(1, target_a());
+    rig.step(&[c]);
+    rig.step(&[c]);
+    let mut old = c;
+    old.seq -= 1;
+    old.job = 5;
+    rig.step(&[old]);
+    assert_eq!(
+        rig.events
+            .iter()
+            .filter(|e| e.state == state::BUFFERED)
+            .count(),
+        1
+    );
+    assert!(rig.states_of(5).is_empty());
+    let mut fresh = rig.command(MotionCommandKind::Override, 6);
+    fresh.issuer = ISSUER + 1;
+    fresh.seq = 1;
+    rig.step(&[fresh]);
+    assert_eq!(rig.final_state(6), Some((state::DONE, 0)));
+    let s = rig.executor.status();
+    assert_eq!((s.acked_issuer, s.acked_seq), (ISSUER + 1, 1));
+}
+
+#[test]
+fn moves_for_disabled_drives_are_refused() {
+    let mut rig = Rig::new();
+    rig.feedback.state = DriveState::Powered as u8;
+    let c = rig.move_to(1, target_a());
+    rig.window = rig.executor.step(&rig.feedback, &[c]);
+    rig.collect_events();
+    assert_eq!(
+        rig.final_state(1),
+        Some((state::ERROR, code::ROBOT_DISABLED))
+    );
+}
+
+#[test]
+fn drives_dropping_out_end_the_move_and_the_command_follows_the_arm() {
+    let mut rig = Rig::new();
+    let c = rig.move_to(1, target_a());
+    rig.step(&[c]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 10.0);
+    // The drives brake the arm to a standstill somewhere and drop out.
+    let mut elsewhere = rig.feedback.q;
+    elsewhere[0] += 0.01;
+    rig.feedback.q = elsewhere;
+    rig.feedback.qd = [0.0; AXES];
+    rig.feedback.state = DriveState::Off as u8;
+    let window = rig.executor.step(&rig.feedback, &[]);
+    rig.collect_events();
+    assert_eq!(
+        rig.final_state(1),
+        Some((state::ERROR, code::INTERRUPTED_NOT_ENABLED))
+    );
+    let w = window.expect("a standing arm is tracked");
+    assert!(
+        w.points
+            .iter()
+            .all(|p| p.q == elsewhere && p.qd == [0.0; AXES])
+    );
+    assert_eq!(rig.executor.status().joints_rad, elsewhere);
+    assert_eq!(rig.executor.status().error_code, 0);
+}
+
+#[test]
+fn a_drive_fault_ends_everything_until_reset() {
+    let mut rig = Rig::new();
+    let a = rig.move_to(1, target_a());
+    let b = rig.move_to(2, home());
+    rig.step(&[a, b]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 10.0);
+    rig.feedback.fault_code = 0x7001;
+    rig.feedback.state = DriveState::Fault as u8;
+    rig.feedback.qd = [0.0; AXES];
+    rig.step(&[]);
+    assert_eq!(rig.final_state(1), Some((state::ERROR, 0x7001)));
+    assert_eq!(rig.final_state(2), Some((state::ERROR, 0x7001)));
+    assert_eq!(rig.executor.status().error_code, 0x7001);
+    // The fault is acknowledged at the drives; the planner error stays until Reset.
+    rig.feedback.fault_code = 0;
+    rig.feedback.state = DriveState::Holding as u8;
+    let c = rig.move_to(3, home());
+    rig.step(&[c]);
+    assert_eq!(
+        rig.final_state(3),
+        Some((state::ERROR, code::DISABLED_DUE_TO_ERROR))
+    );
+    let reset = rig.command(MotionCommandKind::Reset, 4);
+    let d = rig.move_to(5, home());
+    rig.step(&[reset, d]);
+    assert_eq!(rig.final_state(4), Some((state::DONE, 0)));
+    assert_eq!(rig.executor.status().error_code, 0);
+    rig.run_until(10_000, |r| r.is_final(5));
+    assert_eq!(rig.final_state(5), Some((state::DONE, 0)));
+    assert_eq!(rig.feedback.q, home());
+}
+
+#[test]
+fn a_restarted_planner_waits_until_the_arm_stands() {
+    let cfg = config();
+    let mut executor = Executor::new(&cfg, 1);
+    let mut feedback = Rig::new().feedback;
+    feedback.state = DriveState::Stopping as u8;
+    feedback.qd = [0.0, 0.3, 0.0, 0.0, 0.0, 0.0];
+    assert!(executor.step(&feedback, &[]).is_none());
+    assert!(!executor.is_commanding());
+    // Still braking; a move sent now waits.
+    let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+    c.seq = 1;
+    c.job = 1;
+    c.joints_rad = target_a();
+    feedback.tick += 1;
+    feedback.q[1] += 0.0003;
+    feedback.qd[1] = 0.1;
+    assert!(executor.step(&feedback, &[c]).is_none());
+    assert_eq!(executor.status().joints_rad, feedback.q);
+    // Standing, but the servo has not switched to Holding yet.
+    feedback.tick += 1;
+    feedback.qd = [0.0; AXES];
+    assert!(executor.step(&feedback, &[]).is_none());
+    feedback.tick += 1;
+    feedback.state = DriveState::Holding as u8;
+    let w = executor
+        .step(&feedback, &[])
+        .expect("commanding from the standing arm");
+    assert_eq!(w.first_tick, feedback.tick + 1);
+    // The queued move starts from exactly where the arm stands.
+    let p = w.points[0];
+    for i in 0..AXES {
+        assert!((p.q[i] - feedback.q[i]).abs() < 1e-6);
+        assert!(p.qd[i].abs() < 1e-3);
+    }
+}
+
+#[test]
+fn a_late_planner_continues_the_window_the_servo_followed() {
+    let mut smooth = Rig::new();
+    let mut late = Rig::new();
+    for rig in [&mut smooth, &mut late] {
+        let c = rig.move_to(1, target_a());
+        rig.step(&[c]);
+    }
+    for n in 0..3000 {
+        if n % 7 == 3 {
+            // Two wake-ups missed: the servo takes ticks from the last window.
+            late.step_without_planner();
+            late.step_without_planner();
+            smooth.step(&[]);
+            smooth.step(&[]);
+        } else {
+            late.step(&[]);
+            smooth.step(&[]);
+        }
+    }
+    assert_eq!(smooth.trace.len(), late.trace.len());
+    let differ = smooth
+        .trace
+        .iter()
+        .zip(&late.trace)
+        .position(|(a, b)| a != b);
+    assert_eq!(
+        differ, None,
+        "the servo would have seen a different trajectory"
+    );
+    assert_eq!(late.final_state(1), Some((state::DONE, 0)));
+    assert_eq!(late.feedback.q, target_a());
+}
+
+#[test]
+fn a_servo_that_ran_out_of_setpoints_ends_the_move_with_an_error() {
+    let mut rig = Rig::new();
+    let c = rig.move_to(1, target_a());
+    rig.step(&[c]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 10.0);
+    rig.feedback.tick += SETPOINT_WINDOW as u64 + 1;
+    rig.feedback.qd = [0.1; AXES];
+    assert!(rig.executor.step(&rig.feedback, &[]).is_none());
+    rig.collect_events();
+    assert_eq!(rig.final_state(1), Some((state::ERROR, code::MOTION_ERROR)));
+    assert_eq!(rig.executor.status().error_code, code::MOTION_ERROR);
+}
+
+#[test]
+fn a_full_queue_refuses_the_move() {
+    let mut rig = Rig::new();
+    let length = config().main.planner.queue_length;
+    let mut batch = Vec::new();
+    for job in 1..=u32::from(length) + 2 {
+        let mut t = home();
+        t[0] += 0.001 * f64::from(job);
+        batch.push(rig.move_to(job, t));
+    }
+    rig.step(&batch);
+    let last = u32::from(length) + 2;
+    // The burst of events reaches the status ring paced over a few ticks.
+    rig.run_until(100, |r| r.is_final(last));
+    // Queue full with `length` moves; the first of them has not started yet.
+    assert_eq!(
+        rig.final_state(last - 1),
+        Some((state::ERROR, code::INTERNAL_ERROR))
+    );
+    assert_eq!(
+        rig.final_state(last),
+        Some((state::ERROR, code::INTERNAL_ERROR))
+    );
+}
+
+#[test]
+fn a_requested_duration_is_kept_or_refused() {
+    let mut rig = Rig::new();
+    let mut c = rig.move_to(1, target_a());
+    c.duration_s = 6.0;
+    rig.step(&[c]);
+    let begin = rig.trace.len();
+    rig.run_until(10_000, |r| r.is_final(1));
+    let ticks = rig.trace.len() - begin + 1;
+    assert!((ticks as f64 * DT - 6.0).abs() < 2.0 * DT, "{ticks}");
+    let mut quick = rig.move_to(2, home());
+    quick.duration_s = 0.1;
+    rig.step(&[quick]);
+    assert_eq!(rig.final_state(2), Some((state::ERROR, code::INVALID_TIME)));
+}
+
+#[test]
+fn a_zero_length_move_is_done_at_once() {
+    let mut rig = Rig::new();
+    let c = rig.move_to(1, home());
+    rig.step(&[c]);
+    assert_eq!(
+        rig.states_of(1),
+        vec![(state::BUFFERED, 0), (state::ACTIVE, 0), (state::DONE, 0)]
+    );
+}
+
+#[test]
+fn the_same_feedback_twice_does_not_advance_the_motion() {
+    let mut rig = Rig::new();
+    let c = rig.move_to(1, target_a());
+    rig.step(&[c]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 20.0);
+    let first = rig.executor.step(&rig.feedback, &[]);
+    let again = rig.executor.step(&rig.feedback, &[]);
+    assert_eq!(first.map(|w| w.points), again.map(|w| w.points));
+    assert_eq!(first.map(|w| w.first_tick), again.map(|w| w.first_tick));
+}
+
+mod random {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[derive(Debug, Clone)]
+    enum Action {
+        Override(f64),
+        Stop,
+        Abort([f64; AXES]),
+    }
+
+    fn action() -> impl Strategy<Value = Action> {
+        prop_oneof![
+            3 => (0.0f64..=1.0).prop_map(Action::Override),
+            1 => Just(Action::Stop),
+            1 => prop::array::uniform6(-1.0f64..1.0).prop_map(Action::Abort),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+
+        /// Whatever happens when, the joints never leave their velocity and acceleration
+        /// limits, and every job ends with a final state.
+        #[test]
+        fn any_sequence_of_overrides_stops_and_aborts_keeps_the_limits(
+            offset in prop::array::uniform6(-1.0f64..1.0),
+            actions in prop::collection::vec((1usize..400, action()), 1..6),
+        ) {
+            let mut rig = Rig::new();
+            let base = home();
+            let first: [f64; AXES] = core::array::from_fn(|i| base[i] + offset[i]);
+            let c = rig.move_to(1, first);
+            rig.step(&[c]);
+            let mut job = 1;
+            for (wait, action) in actions {
+                for _ in 0..wait {
+                    rig.step(&[]);
+                }
+                job += 1;
+                let c = match action {
+                    Action::Override(f) => {
+                        let mut c = rig.command(MotionCommandKind::Override, job);
+                        c.override_fraction = f;
+                        c
+                    }
+                    Action::Stop => rig.command(MotionCommandKind::Stop, job),
+                    Action::Abort(t) => {
+                        let mut c = rig.move_to(job, core::array::from_fn(|i| base[i] + t[i]));
+                        c.aborting = true;
+                        c
+                    }
+                };
+                rig.step(&[c]);
+            }
+            let mut resume = rig.command(MotionCommandKind::Override, job + 1);
+            resume.override_fraction = 1.0;
+            rig.step(&[resume]);
+            rig.run_until(20_000, |r| (1..=job + 1).all(|j| r.is_final(j)));
+            rig.check_limits();
+        }
+    }
+}

@@ -1,0 +1,344 @@
+//! The synchronized joint-space point-to-point move (MoveAxes).
+//!
+//! `q(s) = q0 + Δ·s` with one [`DoubleS`] profile for `s`, so every joint starts and arrives
+//! at the same time and the arm stays on the straight line in joint space. The path limits
+//! are the tightest of the joints': `v_s = min_i v_i/|Δ_i|` (and the same for acceleration
+//! and jerk), so `|q̇_i| = |Δ_i|·ṡ ≤ v_i` for every joint.
+
+use shared_types::config::JointLimitsRad;
+use shared_types::ipc::{AXES, JointPoint, MotionCommand};
+use shared_types::srci::message::code;
+
+use crate::profile::DoubleS;
+
+/// Largest joint displacement (rad) treated as no motion at all.
+const ZERO_LENGTH_RAD: f64 = 1e-12;
+/// Relative slack for a requested duration that equals the shortest one up to rounding.
+const DURATION_TOLERANCE: f64 = 1e-9;
+
+/// Why a MoveAxes cannot be executed; [`code`](Self::code) is the SRCI message code.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum MoveError {
+    #[error("joint {axis} target {target_rad} rad is below the lower limit {limit_rad} rad")]
+    BelowLowerLimit {
+        axis: usize,
+        target_rad: f64,
+        limit_rad: f64,
+    },
+    #[error("joint {axis} target {target_rad} rad is above the upper limit {limit_rad} rad")]
+    AboveUpperLimit {
+        axis: usize,
+        target_rad: f64,
+        limit_rad: f64,
+    },
+    #[error("joint {axis} target is not a number")]
+    InvalidTarget { axis: usize },
+    #[error("velocity scale {0} is outside (0, 1]")]
+    InvalidVelocityScale(f64),
+    #[error("acceleration scale {0} is outside (0, 1]")]
+    InvalidAccelerationScale(f64),
+    #[error("jerk scale {0} is outside (0, 1]")]
+    InvalidJerkScale(f64),
+    #[error(
+        "duration {requested_s} s is invalid or shorter than the fastest possible {shortest_s} s"
+    )]
+    InvalidDuration { requested_s: f64, shortest_s: f64 },
+}
+
+impl MoveError {
+    /// The SRCI message code reported for this error.
+    pub fn code(&self) -> u16 {
+        match self {
+            Self::BelowLowerLimit { .. } => code::SW_LIMIT_LOWER,
+            Self::AboveUpperLimit { .. } => code::SW_LIMIT_UPPER,
+            Self::InvalidTarget { .. } => code::INVALID_JOINT_POSITION,
+            Self::InvalidVelocityScale(_) => code::INVALID_VELOCITY_RATE,
+            Self::InvalidAccelerationScale(_) => code::INVALID_ACCELERATION_RATE,
+            Self::InvalidJerkScale(_) => code::INVALID_JERK_RATE,
+            Self::InvalidDuration { .. } => code::INVALID_TIME,
+        }
+    }
+}
+
+/// Checks what a MoveAxes command asks for independently of where the arm is: the target
+/// inside the joint limits, the scales in (0, 1], the duration finite and not negative.
+pub fn validate(command: &MotionCommand, limits: &JointLimitsRad) -> Result<(), MoveError> {
+    for (axis, &target_rad) in command.joints_rad.iter().enumerate() {
+        if !target_rad.is_finite() {
+            return Err(MoveError::InvalidTarget { axis });
+        }
+        if target_rad < limits.min[axis] {
+            return Err(MoveError::BelowLowerLimit {
+                axis,
+                target_rad,
+                limit_rad: limits.min[axis],
+            });
+        }
+        if target_rad > limits.max[axis] {
+            return Err(MoveError::AboveUpperLimit {
+                axis,
+                target_rad,
+                limit_rad: limits.max[axis],
+            });
+        }
+    }
+    let in_unit = |x: f64| x > 0.0 && x <= 1.0;
+    if !in_unit(command.velocity_scale) {
+        return Err(MoveError::InvalidVelocityScale(command.velocity_scale));
+    }
+    if !in_unit(command.acceleration_scale) {
+        return Err(MoveError::InvalidAccelerationScale(
+            command.acceleration_scale,
+        ));
+    }
+    if !in_unit(command.jerk_scale) {
+        return Err(MoveError::InvalidJerkScale(command.jerk_scale));
+    }
+    if !(command.duration_s.is_finite() && command.duration_s >= 0.0) {
+        return Err(MoveError::InvalidDuration {
+            requested_s: command.duration_s,
+            shortest_s: 0.0,
+        });
+    }
+    Ok(())
+}
+
+/// Limits of the path parameter `s` of one move.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathLimits {
+    /// Largest `ṡ`, 1/s.
+    pub velocity: f64,
+    /// Largest `|s̈|`, 1/s².
+    pub acceleration: f64,
+    /// Largest `|s⃛|`, 1/s³.
+    pub jerk: f64,
+}
+
+/// The outcome of planning a MoveAxes from a start position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "plans are made in the tick path, where boxing would allocate"
+)]
+pub enum Plan {
+    /// The arm already is at the target: the move is done without motion.
+    Stationary,
+    /// The arm has to move.
+    Move(JointMove),
+}
+
+/// A planned synchronized joint move.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointMove {
+    start: [f64; AXES],
+    target: [f64; AXES],
+    delta: [f64; AXES],
+    /// Path limits from the scaled joint limits (what the joints may do in total).
+    limits: PathLimits,
+    /// The profile, planned with the acceleration reserve held back for override changes.
+    profile: DoubleS,
+    /// Largest rate of change of the override (1/s) the reserve pays for.
+    override_rate: f64,
+}
+
+impl JointMove {
+    /// Plans the move of `command` (validated with [`validate`]) from `start`.
+    ///
+    /// `reserve` in [0, 1) is the share of the acceleration limit held back so that the
+    /// override may change during the move at [`override_rate`](Self::override_rate): with
+    /// `|s̈_plan| ≤ (1 − r)·a_s` and `|ṡ_plan| ≤ v_s`, time scaling by σ ≤ 1 with
+    /// `|σ̇| ≤ r·a_s/v_s` gives `|s̈| ≤ |s̈_plan|·σ² + |ṡ_plan|·|σ̇| ≤ a_s`.
+    pub fn plan(
+        start: [f64; AXES],
+        command: &MotionCommand,
+        limits: &JointLimitsRad,
+        reserve: f64,
+    ) -> Result<Plan, MoveError> {
+        validate(command, limits)?;
+        let target = command.joints_rad;
+        let delta: [f64; AXES] = core::array::from_fn(|i| target[i] - start[i]);
+        if delta.iter().all(|d| d.abs() <= ZERO_LENGTH_RAD) {
+            return Ok(Plan::Stationary);
+        }
+        let path = |joint: &[f64; AXES], scale: f64| {
+            delta
+                .iter()
+                .zip(joint)
+                .filter(|(d, _)| d.abs() > ZERO_LENGTH_RAD)
+                .map(|(d, lim)| scale * lim / d.abs())
+                .fold(f64::INFINITY, f64::min)
+        };
+        let path_limits = PathLimits {
+            velocity: path(&limits.velocity, command.velocity_scale),
+            acceleration: path(&limits.acceleration, command.acceleration_scale),
+            jerk: path(&limits.jerk, command.jerk_scale),
+        };
+        let fastest = DoubleS::new(
+            path_limits.velocity,
+            (1.0 - reserve) * path_limits.acceleration,
+            path_limits.jerk,
+        );
+        let requested = command.duration_s;
+        let profile = if requested > 0.0 {
+            if requested < fastest.duration() * (1.0 - DURATION_TOLERANCE) {
+                return Err(MoveError::InvalidDuration {
+                    requested_s: requested,
+                    shortest_s: fastest.duration(),
+                });
+            }
+            fastest.stretched(requested)
+        } else {
+            fastest
+        };
+        Ok(Plan::Move(Self {
+            start,
+            target,
+            delta,
+            limits: path_limits,
+            profile,
+            override_rate: reserve * path_limits.acceleration / path_limits.velocity,
+        }))
+    }
+
+    /// Joint position where the move ends, exactly as commanded.
+    pub fn target(&self) -> [f64; AXES] {
+        self.target
+    }
+
+    /// The path-parameter profile.
+    pub fn profile(&self) -> &DoubleS {
+        &self.profile
+    }
+
+    /// The path limits the joint limits allow for this move (without reserve).
+    pub fn limits(&self) -> PathLimits {
+        self.limits
+    }
+
+    /// Largest |σ̇| of the override time scaling that keeps the joint accelerations in limits.
+    pub fn override_rate(&self) -> f64 {
+        self.override_rate
+    }
+
+    /// The joint point at path position `s` with path velocity `sd` and acceleration `sdd`.
+    /// `s = 1` gives the target exactly.
+    pub fn point(&self, s: f64, sd: f64, sdd: f64) -> JointPoint {
+        let q = if s >= 1.0 {
+            self.target
+        } else {
+            core::array::from_fn(|i| self.start[i] + self.delta[i] * s)
+        };
+        JointPoint {
+            q,
+            qd: self.delta.map(|d| d * sd),
+            qdd: self.delta.map(|d| d * sdd),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared_types::ipc::MotionCommandKind;
+
+    fn limits() -> JointLimitsRad {
+        JointLimitsRad {
+            min: [-3.0; AXES],
+            max: [3.0; AXES],
+            velocity: [1.0, 1.0, 2.0, 2.0, 3.0, 3.0],
+            acceleration: [4.0; AXES],
+            jerk: [40.0; AXES],
+        }
+    }
+
+    fn move_to(target: [f64; AXES]) -> MotionCommand {
+        let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+        c.joints_rad = target;
+        c
+    }
+
+    fn planned(start: [f64; AXES], c: &MotionCommand) -> JointMove {
+        match JointMove::plan(start, c, &limits(), 0.2) {
+            Ok(Plan::Move(m)) => m,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn path_limits_come_from_the_tightest_joint() {
+        let mut c = move_to([1.0, 0.0, -2.0, 0.0, 0.0, 0.5]);
+        c.velocity_scale = 0.5;
+        let m = planned([0.0; AXES], &c);
+        // Joint 0: 0.5·1/1 = 0.5; joint 2: 0.5·2/2 = 0.5; joint 5: 0.5·3/0.5 = 3.
+        assert!((m.limits().velocity - 0.5).abs() < 1e-12);
+        assert!((m.limits().acceleration - 2.0).abs() < 1e-12);
+        assert!((m.limits().jerk - 20.0).abs() < 1e-12);
+        assert!((m.override_rate() - 0.2 * 2.0 / 0.5).abs() < 1e-12);
+        assert!(m.profile().peak_acceleration() <= 0.8 * 2.0 + 1e-12);
+    }
+
+    #[test]
+    fn joints_stay_on_the_line_and_arrive_exactly() {
+        let start = [0.1, -0.2, 0.3, 0.0, 1.0, -1.0];
+        let target = [1.1, 0.2, -0.3, 0.0, 2.5, -1.25];
+        let m = planned(start, &move_to(target));
+        let end = m.point(1.0, 0.0, 0.0);
+        assert_eq!(end.q, target);
+        let mid = m.point(0.25, 0.0, 0.0);
+        for i in 0..AXES {
+            let expected = start[i] + 0.25 * (target[i] - start[i]);
+            assert!((mid.q[i] - expected).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn zero_length_move_is_stationary() {
+        let start = [0.5; AXES];
+        assert_eq!(
+            JointMove::plan(start, &move_to(start), &limits(), 0.2),
+            Ok(Plan::Stationary)
+        );
+    }
+
+    #[test]
+    fn targets_outside_the_limits_are_rejected_with_their_codes() {
+        let mut t = [0.0; AXES];
+        t[3] = -3.1;
+        let e = validate(&move_to(t), &limits()).unwrap_err();
+        assert_eq!(e.code(), 0x8C53);
+        t[3] = 3.1;
+        let e = validate(&move_to(t), &limits()).unwrap_err();
+        assert_eq!(e.code(), 0x8C54);
+        t[3] = f64::NAN;
+        let e = validate(&move_to(t), &limits()).unwrap_err();
+        assert_eq!(e.code(), code::INVALID_JOINT_POSITION);
+    }
+
+    #[test]
+    fn scales_outside_the_unit_interval_are_rejected() {
+        let mut c = move_to([0.0; AXES]);
+        c.velocity_scale = 0.0;
+        assert_eq!(validate(&c, &limits()).unwrap_err().code(), 0x8D38);
+        c.velocity_scale = 1.0;
+        c.acceleration_scale = 1.5;
+        assert_eq!(validate(&c, &limits()).unwrap_err().code(), 0x8D01);
+        c.acceleration_scale = 1.0;
+        c.jerk_scale = f64::NAN;
+        assert_eq!(validate(&c, &limits()).unwrap_err().code(), 0x8D11);
+        c.jerk_scale = 1.0;
+        c.duration_s = -1.0;
+        assert_eq!(validate(&c, &limits()).unwrap_err().code(), 0x8D34);
+    }
+
+    #[test]
+    fn requested_duration_stretches_or_is_rejected() {
+        let mut c = move_to([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let fastest = planned([0.0; AXES], &c).profile().duration();
+        c.duration_s = 2.0 * fastest;
+        let m = planned([0.0; AXES], &c);
+        assert!((m.profile().duration() - 2.0 * fastest).abs() < 1e-12);
+        c.duration_s = 0.9 * fastest;
+        let e = JointMove::plan([0.0; AXES], &c, &limits(), 0.2).unwrap_err();
+        assert_eq!(e.code(), 0x8D34);
+    }
+}

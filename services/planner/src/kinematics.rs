@@ -1,0 +1,202 @@
+//! Forward kinematics of the standard Denavit-Hartenberg chain of the robot configuration,
+//! and the fixed-axis X-Y-Z (roll-pitch-yaw) angles the flange pose is reported in.
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use shared_types::config::KinematicsConfig;
+use shared_types::ipc::AXES;
+
+/// `cos(Ry)` below which the X and Z axes coincide (gimbal lock) and `Rz` is set to 0.
+const GIMBAL_LOCK_COS: f64 = 1e-9;
+
+/// The kinematic chain of the arm from the base to the flange.
+#[derive(Debug, Clone)]
+pub struct Kinematics {
+    /// The joint-independent part of each link, `Tz(d_i)·Tx(a_i)·Rx(alpha_i)`.
+    links: [Isometry3<f64>; AXES],
+    /// Joint zero offsets, rad.
+    offsets: [f64; AXES],
+}
+
+impl Kinematics {
+    /// The chain of `T_i = Rz(q_i + offset_i)·Tz(d_i)·Tx(a_i)·Rx(alpha_i)`.
+    pub fn new(config: &KinematicsConfig) -> Self {
+        Self {
+            links: core::array::from_fn(|i| {
+                Isometry3::from_parts(
+                    Translation3::new(config.a_m[i], 0.0, config.d_m[i]),
+                    UnitQuaternion::from_axis_angle(
+                        &Vector3::x_axis(),
+                        config.alpha_deg[i].to_radians(),
+                    ),
+                )
+            }),
+            offsets: config.offset_deg.map(f64::to_radians),
+        }
+    }
+
+    /// The flange frame in the base frame for the joint positions `q` (rad).
+    pub fn flange(&self, q: &[f64; AXES]) -> Isometry3<f64> {
+        self.links.iter().zip(q.iter().zip(&self.offsets)).fold(
+            Isometry3::identity(),
+            |base, (link, (qi, offset))| {
+                let joint = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), qi + offset);
+                base * Isometry3::from_parts(Translation3::identity(), joint) * link
+            },
+        )
+    }
+
+    /// The flange pose `[x, y, z, Rx, Ry, Rz]` (m, rad) with `R = Rz(Rz)·Ry(Ry)·Rx(Rx)`.
+    pub fn flange_pose(&self, q: &[f64; AXES]) -> [f64; 6] {
+        let flange = self.flange(q);
+        let t = flange.translation.vector;
+        let [rx, ry, rz] = rpy_from_matrix(flange.rotation.to_rotation_matrix().matrix());
+        [t.x, t.y, t.z, rx, ry, rz]
+    }
+}
+
+/// The angles `[Rx, Ry, Rz]` with `R = Rz(Rz)·Ry(Ry)·Rx(Rx)`, `Ry` in [−π/2, π/2]. In gimbal
+/// lock (`Ry = ±π/2`) only `Rx ∓ Rz` is defined; `Rz` is then reported as 0.
+pub fn rpy_from_matrix(r: &Matrix3<f64>) -> [f64; 3] {
+    let cos_ry = r[(0, 0)].hypot(r[(1, 0)]);
+    let ry = (-r[(2, 0)]).atan2(cos_ry);
+    if cos_ry > GIMBAL_LOCK_COS {
+        [r[(2, 1)].atan2(r[(2, 2)]), ry, r[(1, 0)].atan2(r[(0, 0)])]
+    } else if r[(2, 0)] < 0.0 {
+        // Ry = +π/2: the matrix depends on Rx − Rz only, r12 = sin(Rx − Rz), r22 = cos(…).
+        [r[(0, 1)].atan2(r[(1, 1)]), ry, 0.0]
+    } else {
+        // Ry = −π/2: the matrix depends on Rx + Rz only, r12 = −sin(Rx + Rz), r22 = cos(…).
+        [(-r[(0, 1)]).atan2(r[(1, 1)]), ry, 0.0]
+    }
+}
+
+/// The rotation `Rz(rz)·Ry(ry)·Rx(rx)`.
+pub fn rotation_from_rpy(rx: f64, ry: f64, rz: f64) -> Rotation3<f64> {
+    Rotation3::from_axis_angle(&Vector3::z_axis(), rz)
+        * Rotation3::from_axis_angle(&Vector3::y_axis(), ry)
+        * Rotation3::from_axis_angle(&Vector3::x_axis(), rx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::f64::consts::FRAC_PI_2;
+    use proptest::prelude::*;
+    use shared_types::config::Config;
+
+    fn zu7() -> Kinematics {
+        let cfg = Config::load(None).expect("embedded configuration");
+        assert_eq!(cfg.robot.name, "JAKA Zu 7");
+        Kinematics::new(&cfg.robot.kinematics)
+    }
+
+    // JAKA Zu 7 table: d1 = 0.12015, a2 = 0.360, a3 = 0.30353, d4 = −0.11501, d5 = 0.1135,
+    // d6 = 0.107; alpha = (90°, 0, 0, 90°, −90°, 0).
+    const D1: f64 = 0.12015;
+    const A2: f64 = 0.360;
+    const A3: f64 = 0.30353;
+    const D4: f64 = -0.11501;
+    const D5: f64 = 0.1135;
+    const D6: f64 = 0.107;
+
+    fn assert_pose(kin: &Kinematics, q: [f64; 6], position: [f64; 3], rotation: Matrix3<f64>) {
+        let f = kin.flange(&q);
+        for i in 0..3 {
+            assert!(
+                (f.translation.vector[i] - position[i]).abs() < 1e-12,
+                "{q:?}: {:?} != {position:?}",
+                f.translation.vector
+            );
+        }
+        let r = f.rotation.to_rotation_matrix();
+        assert!((r.matrix() - rotation).abs().max() < 1e-12, "{q:?}: {r}");
+    }
+
+    #[test]
+    fn zero_pose_matches_the_hand_computed_chain() {
+        // At q = 0, link 1 turns the frame to (x, y, z) = (X, Z, −Y); a2 and a3 run along X,
+        // d4 along −Y, link 4 turns to (X, −Y, −Z), d5 along −Z, link 5 turns back to
+        // (X, Z, −Y), d6 along −Y.
+        let rotation = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0);
+        assert_pose(&zu7(), [0.0; 6], [A2 + A3, -D4 - D6, D1 - D5], rotation);
+        // (0.66353, 0.00801, 0.00665) m, the flange position of JAKA's URDF at zero.
+        let p = zu7().flange_pose(&[0.0; 6]);
+        assert!((p[0] - 0.66353).abs() < 1e-12 && (p[1] - 0.00801).abs() < 1e-12);
+        assert!((p[2] - 0.00665).abs() < 1e-12);
+        assert!((p[3] - FRAC_PI_2).abs() < 1e-12 && p[4].abs() < 1e-12 && p[5].abs() < 1e-12);
+    }
+
+    #[test]
+    fn base_joint_turns_the_zero_pose_about_z() {
+        // Rz(90°) maps (x, y) to (−y, x) and the frame (X, Z, −Y) to (Y, Z, X).
+        let rotation = Matrix3::new(0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+        assert_pose(
+            &zu7(),
+            [FRAC_PI_2, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [D4 + D6, A2 + A3, D1 - D5],
+            rotation,
+        );
+    }
+
+    #[test]
+    fn shoulder_up_pose_matches_the_hand_computed_chain() {
+        // q2 = 90°: the upper arm points up (frame (Z, −X, −Y)); d4 along −Y, link 4 turns to
+        // (Z, −Y, X), d5 along X, link 5 to (Z, −X, −Y), d6 along −Y.
+        let rotation = Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0);
+        assert_pose(
+            &zu7(),
+            [0.0, FRAC_PI_2, 0.0, 0.0, 0.0, 0.0],
+            [D5, -D4 - D6, D1 + A2 + A3],
+            rotation,
+        );
+    }
+
+    #[test]
+    fn flange_joint_turns_only_the_orientation() {
+        // Rz(90°) about the flange z (= −Y): x goes to Z, y to −X.
+        let rotation = Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0);
+        assert_pose(
+            &zu7(),
+            [0.0, 0.0, 0.0, 0.0, 0.0, FRAC_PI_2],
+            [A2 + A3, -D4 - D6, D1 - D5],
+            rotation,
+        );
+    }
+
+    #[test]
+    fn gimbal_lock_angles_rebuild_the_rotation() {
+        for ry in [FRAC_PI_2, -FRAC_PI_2] {
+            let r = rotation_from_rpy(0.7, ry, -0.4);
+            let [a, b, c] = rpy_from_matrix(r.matrix());
+            assert_eq!(c, 0.0);
+            assert!((b - ry).abs() < 1e-7);
+            let back = rotation_from_rpy(a, b, c);
+            assert!((back.matrix() - r.matrix()).abs().max() < 1e-7, "{ry}");
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn angles_round_trip_through_the_rotation_matrix(
+            rx in -3.1f64..3.1,
+            ry in -1.57f64..1.57,
+            rz in -3.1f64..3.1,
+        ) {
+            let r = rotation_from_rpy(rx, ry, rz);
+            let [a, b, c] = rpy_from_matrix(r.matrix());
+            prop_assert!((a - rx).abs() < 1e-9 && (b - ry).abs() < 1e-9 && (c - rz).abs() < 1e-9);
+            let back = rotation_from_rpy(a, b, c);
+            prop_assert!((back.matrix() - r.matrix()).abs().max() < 1e-12);
+        }
+
+        #[test]
+        fn reported_pose_rebuilds_the_flange_frame(q in prop::array::uniform6(-3.0f64..3.0)) {
+            let kin = zu7();
+            let f = kin.flange(&q);
+            let p = kin.flange_pose(&q);
+            let r = rotation_from_rpy(p[3], p[4], p[5]);
+            prop_assert!((r.matrix() - f.rotation.to_rotation_matrix().matrix()).abs().max() < 1e-9);
+            prop_assert_eq!(&p[..3], f.translation.vector.as_slice());
+        }
+    }
+}

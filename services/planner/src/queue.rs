@@ -1,0 +1,91 @@
+//! The primary sequence: a fixed-capacity FIFO of buffered moves, allocated once.
+
+use shared_types::ipc::{MotionCommand, MotionCommandKind};
+
+/// Buffered MoveAxes commands in execution order.
+#[derive(Debug)]
+pub struct MoveQueue {
+    slots: Box<[MotionCommand]>,
+    head: usize,
+    len: usize,
+}
+
+impl MoveQueue {
+    /// An empty queue for `capacity` moves (at least one).
+    pub fn with_capacity(capacity: usize) -> Self {
+        Self {
+            slots: vec![MotionCommand::new(MotionCommandKind::MoveAxes); capacity.max(1)]
+                .into_boxed_slice(),
+            head: 0,
+            len: 0,
+        }
+    }
+
+    /// Number of buffered moves.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether no move is buffered.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Appends `command`; gives it back when the queue is full.
+    pub fn push(&mut self, command: MotionCommand) -> Result<(), MotionCommand> {
+        if self.len == self.slots.len() {
+            return Err(command);
+        }
+        let tail = (self.head + self.len) % self.slots.len();
+        self.slots[tail] = command;
+        self.len += 1;
+        Ok(())
+    }
+
+    /// The `index`-th move from the front, without removing it.
+    pub fn get(&self, index: usize) -> Option<&MotionCommand> {
+        (index < self.len).then(|| &self.slots[(self.head + index) % self.slots.len()])
+    }
+
+    /// The last move, the one that will end the sequence.
+    pub fn back(&self) -> Option<&MotionCommand> {
+        self.len.checked_sub(1).and_then(|i| self.get(i))
+    }
+
+    /// Removes and returns the front move.
+    pub fn pop_front(&mut self) -> Option<MotionCommand> {
+        let front = *self.get(0)?;
+        self.head = (self.head + 1) % self.slots.len();
+        self.len -= 1;
+        Some(front)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn job(n: u32) -> MotionCommand {
+        let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+        c.job = n;
+        c
+    }
+
+    #[test]
+    fn fifo_order_wraps_around_and_reports_full() {
+        let mut q = MoveQueue::with_capacity(3);
+        for round in 0..5 {
+            let base = round * 10;
+            for i in 0..3 {
+                assert!(q.push(job(base + i)).is_ok());
+            }
+            assert_eq!(q.push(job(99)).unwrap_err().job, 99);
+            assert_eq!(q.get(1).map(|c| c.job), Some(base + 1));
+            assert_eq!(q.back().map(|c| c.job), Some(base + 2));
+            for i in 0..3 {
+                assert_eq!(q.pop_front().map(|c| c.job), Some(base + i));
+            }
+            assert!(q.is_empty() && q.pop_front().is_none() && q.back().is_none());
+        }
+    }
+}

@@ -1,0 +1,119 @@
+//! The planner process loop over real iceoryx2 services, driven in lockstep by a simulated
+//! servo in the test.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use shared_types::bus::{Bus, publish, receive_latest};
+use shared_types::config::Config;
+use shared_types::ipc::{
+    AXES, DriveState, JOB_EVENTS, MotionCommand, MotionCommandKind, MotionStatus, ServoFeedback,
+    ServoSetpoint, topics,
+};
+use shared_types::srci::message::state;
+
+fn feedback(tick: u64, q: [f64; AXES]) -> ServoFeedback {
+    ServoFeedback {
+        instance: 42,
+        tick,
+        time_ns: 0,
+        period_ns: 1_000_000,
+        q,
+        qd: [0.0; AXES],
+        state: DriveState::Holding as u8,
+        reserved: 0,
+        fault_code: 0,
+        reserved2: 0,
+        control_seq: 0,
+        setpoint_misses: 0,
+        overruns: 0,
+    }
+}
+
+#[test]
+fn the_planner_process_drives_a_move_to_its_target_and_shuts_down_promptly() {
+    let mut cfg = Config::load(None).expect("embedded configuration");
+    cfg.main.instance = format!("plan{}", std::process::id());
+    let shutdown = Arc::new(AtomicBool::new(false));
+    let planner = {
+        let (cfg, shutdown) = (cfg.clone(), Arc::clone(&shutdown));
+        std::thread::spawn(move || planner::run(&cfg, &shutdown))
+    };
+
+    let bus = Bus::new(&cfg.main.instance, "servo_sim").expect("bus");
+    let feedback_publisher = bus
+        .publisher::<ServoFeedback>(topics::SERVO_FEEDBACK)
+        .unwrap();
+    let feedback_notifier = bus.notifier(topics::SERVO_FEEDBACK).unwrap();
+    let command_publisher = bus
+        .publisher::<MotionCommand>(topics::MOTION_COMMAND)
+        .unwrap();
+    let setpoints = bus
+        .subscriber::<ServoSetpoint>(topics::SERVO_SETPOINT)
+        .unwrap();
+    let statuses = bus
+        .subscriber::<MotionStatus>(topics::MOTION_STATUS)
+        .unwrap();
+
+    let mut q: [f64; AXES] = cfg.robot.home_deg.map(f64::to_radians);
+    let mut target = q;
+    target[0] += 0.3;
+    target[4] -= 0.2;
+    let mut command = MotionCommand::new(MotionCommandKind::MoveAxes);
+    (command.seq, command.issuer, command.job, command.joints_rad) = (1, 9, 1, target);
+
+    let mut events = Vec::new();
+    let mut seen = 0;
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let mut tick = 1;
+    while !events.contains(&(1, state::DONE)) {
+        assert!(
+            Instant::now() < deadline,
+            "the move did not finish: {events:?}"
+        );
+        // Lockstep: wait for the planner's answer to this tick. The feedback is sent again
+        // meanwhile, as a servo does every period: iceoryx2 connects a new subscriber (the
+        // planner's, at start) only when the publisher sends.
+        let status = 'answer: loop {
+            publish(&feedback_publisher, feedback(tick, q)).unwrap();
+            feedback_notifier.notify().unwrap();
+            for _ in 0..20 {
+                assert!(Instant::now() < deadline, "no status for tick {tick}");
+                if planner.is_finished() {
+                    panic!("planner ended: {:?}", planner.join());
+                }
+                match receive_latest(&statuses).unwrap() {
+                    Some(s) if s.tick == tick => break 'answer s,
+                    _ => std::thread::sleep(Duration::from_micros(100)),
+                }
+            }
+        };
+        for n in seen + 1..=status.event_head {
+            let e = status.events[(n % JOB_EVENTS as u64) as usize];
+            events.push((e.job, e.state));
+        }
+        seen = status.event_head;
+        if status.acked_seq < 1 {
+            publish(&command_publisher, command).unwrap();
+        }
+        if let Some(window) = receive_latest(&setpoints).unwrap() {
+            assert_eq!(window.first_tick, tick + 1);
+            q = window.points[0].q;
+        }
+        tick += 1;
+    }
+    assert_eq!(q, target);
+    assert_eq!(
+        events,
+        vec![(1, state::BUFFERED), (1, state::ACTIVE), (1, state::DONE)]
+    );
+
+    let asked = Instant::now();
+    shutdown.store(true, Ordering::Relaxed);
+    planner
+        .join()
+        .expect("planner thread")
+        .expect("planner run");
+    assert!(asked.elapsed() < Duration::from_millis(200));
+}
