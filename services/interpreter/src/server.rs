@@ -233,7 +233,7 @@ impl Server {
             &mut self.updates,
         );
         if let Some(f) = fault {
-            self.on_planner_fault(f, now);
+            self.on_planner_fault(f, now, fx);
         }
         self.apply_job_updates(now, fx);
         self.progress_enable(now, fx);
@@ -246,7 +246,7 @@ impl Server {
             self.motion
                 .on_status(status, now.mono_ms, code::MOTION_ERROR, &mut self.updates);
         if let Some(f) = fault {
-            self.on_planner_fault(f, now);
+            self.on_planner_fault(f, now, fx);
         }
         if status.error_code != 0 && status.error_code != self.last_planner_error {
             self.error_pending = true;
@@ -281,8 +281,14 @@ impl Server {
         self.progress_enable(now, fx);
     }
 
-    fn on_planner_fault(&mut self, fault: PlannerFault, now: Now) {
+    fn on_planner_fault(&mut self, fault: PlannerFault, now: Now, fx: &mut Effects) {
         self.error_pending = true;
+        if fault == PlannerFault::Restarted {
+            // A new planner starts with the configured override; give it the current one.
+            let mut o = MotionCommand::new(MotionCommandKind::Override);
+            o.override_fraction = self.override_percent / 100.0;
+            let _ = self.motion.submit(o, None, now.mono_ms, &mut fx.motion);
+        }
         let text = match fault {
             PlannerFault::Restarted => {
                 "motion planner restarted: its commands ended with an error, GroupReset required"

@@ -523,7 +523,14 @@ fn planner_restart_ends_moves_with_an_error_until_group_reset() {
     );
     PayloadWriter::new(&mut msg).set_u16(t::move_axes_absolute::request::DECELERATION_RATE, 0xFFFF);
     plc.command(&mut server, 4, NEW, &msg);
+    fx.clear();
     server.on_motion_status(plc.now(), &status(6, &[]), &mut fx);
+    assert!(
+        fx.motion
+            .iter()
+            .any(|c| c.kind == MotionCommandKind::Override as u8 && c.override_fraction == 1.0),
+        "the restarted planner gets the current override"
+    );
     plc.idle(&mut server);
     let h = plc.last_response(4).unwrap();
     assert_eq!((h.state, h.code), (state::ERROR, code::MOTION_ERROR));
