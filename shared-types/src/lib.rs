@@ -5,4 +5,5 @@ pub mod bus;
 pub mod config;
 pub mod ipc;
 pub mod srci;
+pub mod throttle;
 pub mod time;

@@ -9,7 +9,6 @@
 pub mod assembler;
 mod bridge;
 mod tcp;
-mod throttle;
 
 use std::io;
 use std::net::SocketAddr;
@@ -23,8 +22,8 @@ use shared_types::time::monotonic_ns;
 
 use assembler::{TelegramAssembler, TelegramLengthError};
 use bridge::TelegramBridge;
+use shared_types::throttle::WarnThrottle;
 use tcp::{Activity, Disconnect, Ended, TcpLink};
-use throttle::WarnThrottle;
 
 /// Longest wait for socket activity, so shutdown is noticed promptly.
 const POLL_INTERVAL: Duration = Duration::from_millis(10);

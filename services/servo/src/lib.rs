@@ -10,9 +10,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use shared_types::bus::{Bus, BusError, publish, receive_latest};
 use shared_types::config::Config;
 use shared_types::ipc::{DriveState, ServoControl, ServoFeedback, ServoSetpoint, topics};
+use shared_types::throttle::WarnThrottle;
 
 use clock::{ClockError, PeriodicClock, monotonic_ns};
 use drives::{Cause, DriveParams, DriveStatus, SimulatedDrives, Transition};
+
+/// At most one overrun log line per this interval (each overrun is counted in the feedback).
+const OVERRUN_LOG_INTERVAL_NS: u64 = 10_000_000_000;
 
 /// The servo process failed.
 #[derive(Debug, thiserror::Error)]
@@ -48,14 +52,16 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
     );
 
     let mut tick: u64 = 0;
+    let mut overrun_log = WarnThrottle::new(OVERRUN_LOG_INTERVAL_NS);
     while !shutdown.load(Ordering::Relaxed) {
         let timing = clock.wait()?;
-        if timing.skipped > 0 {
-            tracing::warn!(
+        // Overruns are counted in every feedback sample; the log gets one line per interval
+        // at most, so a loaded machine does not flood it.
+        if timing.skipped > 0 && overrun_log.admit(timing.deadline_ns).is_some() {
+            tracing::info!(
                 tick,
-                skipped = timing.skipped,
                 overruns = clock.overruns(),
-                "servo tick overran; periods skipped"
+                "servo ticks overran; periods skipped"
             );
         }
         if let Some(c) = receive_latest(&control_sub)? {

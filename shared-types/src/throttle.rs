@@ -3,14 +3,14 @@
 
 /// Lets a warning through at most once per interval and counts the ones held back.
 #[derive(Debug, Clone)]
-pub(crate) struct WarnThrottle {
+pub struct WarnThrottle {
     interval_ns: u64,
     last_ns: Option<u64>,
     suppressed: u64,
 }
 
 impl WarnThrottle {
-    pub(crate) fn new(interval_ns: u64) -> Self {
+    pub fn new(interval_ns: u64) -> Self {
         Self {
             interval_ns,
             last_ns: None,
@@ -20,7 +20,7 @@ impl WarnThrottle {
 
     /// Called for every occurrence at time `now_ns`: `Some(n)` means log now, `n` occurrences
     /// were held back since the last line; `None` means stay quiet.
-    pub(crate) fn admit(&mut self, now_ns: u64) -> Option<u64> {
+    pub fn admit(&mut self, now_ns: u64) -> Option<u64> {
         match self.last_ns {
             Some(last) if now_ns.saturating_sub(last) < self.interval_ns => {
                 self.suppressed += 1;
