@@ -207,10 +207,35 @@ fn main() {
                     (offset, format!("Layout::Array(WireType::{wt}, {count})")),
                 );
             }
+            // Groups of the six joints or the six pose values of one position, in order.
+            let mut groups = Vec::new();
+            for (name, _) in fields.iter() {
+                for (first, members, suffix) in [
+                    ("_J1", ["J1", "J2", "J3", "J4", "J5", "J6"], "J1_J6"),
+                    ("_X", ["X", "Y", "Z", "RX", "RY", "RZ"], "X_RZ"),
+                ] {
+                    if let Some(prefix) = name.strip_suffix(first) {
+                        let all: Vec<String> =
+                            members.iter().map(|m| format!("{prefix}_{m}")).collect();
+                        if all.iter().all(|m| fields.contains_key(m)) {
+                            groups.push((format!("{prefix}_{suffix}"), all));
+                        }
+                    }
+                }
+            }
             let mut sorted: Vec<_> = fields.into_iter().collect();
             sorted.sort_by_key(|(_, (o, _))| *o);
             for (name, (offset, layout)) in sorted {
                 writeln!(out, "        pub const {name}: Field = Field {{ offset: {offset}, layout: {layout} }};").unwrap();
+            }
+            for (name, members) in groups {
+                writeln!(out, "        /// {} in order.", members.join(", ")).unwrap();
+                writeln!(
+                    out,
+                    "        pub const {name}: [Field; 6] = [{}];",
+                    members.join(", ")
+                )
+                .unwrap();
             }
             writeln!(out, "    }}").unwrap();
         }

@@ -6,21 +6,15 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{
-    Controller, actual_joints, cycles_until, execute, initialize, reset_and_enable, run_until_state,
+    Controller, actual_joints, cycles_until, execute, initialize, max_deviation, move_to,
+    reset_and_enable, run_until_state, start_slow_move,
 };
-use plc_client::{EngineOptions, MoveAxesAbsolute, Request};
+use plc_client::{EngineOptions, Request};
 use shared_types::srci::message::{code, state};
 use shared_types::srci::tables as t;
 use shared_types::srci::telegram::telegram_state as ts;
 
 const HOME: [f64; 6] = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0];
-
-fn max_deviation(a: [f64; 6], b: [f64; 6]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-}
 
 #[test]
 fn handshake_enable_and_moves_reach_their_targets() {
@@ -46,19 +40,10 @@ fn handshake_enable_and_moves_reach_their_targets() {
         [20.0, 100.0, 70.0, 80.0, -80.0, 30.0],
         [-15.0, 80.0, 100.0, 95.0, -100.0, -20.0],
     ] {
-        let mut m = MoveAxesAbsolute::to(target);
-        m.velocity_rate = Some(80.0);
-        m.acceleration_rate = Some(80.0);
-        let s = execute(
-            &mut plc,
-            &Request::MoveAxesAbsolute(m),
-            Duration::from_secs(15),
-        );
-        assert_eq!((s.state, s.code), (state::DONE, 0), "{s:?}");
-        let reached = actual_joints(&mut plc);
+        let deviation = move_to(&mut plc, target, 80.0);
         assert!(
-            max_deviation(reached, target) < 0.01,
-            "reached {reached:?}, target {target:?}"
+            deviation < 0.01,
+            "{target:?} reached within {deviation} deg"
         );
     }
     assert!(!plc.task().is_moving());
@@ -123,14 +108,7 @@ fn frozen_plc_lifesign_gets_165_and_stops_motion() {
     initialize(&mut plc);
     reset_and_enable(&mut plc);
     let target = [60.0, 120.0, 40.0, 60.0, -40.0, 90.0];
-    let mut m = MoveAxesAbsolute::to(target);
-    m.velocity_rate = Some(10.0);
-    let handle = plc
-        .task_mut()
-        .submit(&Request::MoveAxesAbsolute(m))
-        .expect("submit");
-    run_until_state(&mut plc, handle, state::ACTIVE, Duration::from_secs(5));
-    plc.run_for(Duration::from_millis(300)).expect("moving");
+    start_slow_move(&mut plc, target);
     assert!(plc.task().is_moving(), "the arm moves before the freeze");
 
     plc.task_mut().set_lifesign_frozen(true);
@@ -174,14 +152,7 @@ fn planner_killed_during_a_move_stops_the_arm_and_recovers_after_group_reset() {
     initialize(&mut plc);
     reset_and_enable(&mut plc);
     let target = [-60.0, 130.0, 30.0, 50.0, -30.0, -90.0];
-    let mut m = MoveAxesAbsolute::to(target);
-    m.velocity_rate = Some(10.0);
-    let handle = plc
-        .task_mut()
-        .submit(&Request::MoveAxesAbsolute(m))
-        .expect("submit");
-    run_until_state(&mut plc, handle, state::ACTIVE, Duration::from_secs(5));
-    plc.run_for(Duration::from_millis(300)).expect("moving");
+    let handle = start_slow_move(&mut plc, target);
     let planner = c.pid_of("planner").expect("planner pid");
     // SAFETY: kill(2) on the planner process of our own controller.
     assert_eq!(unsafe { libc::kill(planner as i32, libc::SIGKILL) }, 0);
@@ -213,14 +184,6 @@ fn planner_killed_during_a_move_stops_the_arm_and_recovers_after_group_reset() {
         state::DONE,
         "GroupReset after the restart: {reset:?}"
     );
-    let mut m = MoveAxesAbsolute::to(HOME);
-    m.velocity_rate = Some(100.0);
-    let s = execute(
-        &mut plc,
-        &Request::MoveAxesAbsolute(m),
-        Duration::from_secs(15),
-    );
-    assert_eq!((s.state, s.code), (state::DONE, 0), "{s:?}");
-    let reached = actual_joints(&mut plc);
-    assert!(max_deviation(reached, HOME) < 0.01, "{reached:?}");
+    let deviation = move_to(&mut plc, HOME, 100.0);
+    assert!(deviation < 0.01, "home reached within {deviation} deg");
 }

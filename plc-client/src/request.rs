@@ -226,14 +226,7 @@ fn encode_move_axes_absolute(m: &MoveAxesAbsolute, w: &mut PayloadWriter<'_>) {
         // REAL on the wire.
         w.set_f32(f::BLENDING_PARAMETER.element(i), *p as f32);
     }
-    let joints = [
-        f::JOINT_POSITION_J1,
-        f::JOINT_POSITION_J2,
-        f::JOINT_POSITION_J3,
-        f::JOINT_POSITION_J4,
-        f::JOINT_POSITION_J5,
-        f::JOINT_POSITION_J6,
-    ];
+    let joints = f::JOINT_POSITION_J1_J6;
     for (field, q) in joints.into_iter().zip(m.joints_deg) {
         w.set_f32(field, q as f32);
     }

@@ -113,22 +113,8 @@ impl ActualPosition {
         Self {
             tool: r.u8(f::TOOL_NO_RETURN),
             frame: r.u8(f::FRAME_NO_RETURN),
-            cartesian: read([
-                f::ACTUAL_CARTESIAN_POSITION_X,
-                f::ACTUAL_CARTESIAN_POSITION_Y,
-                f::ACTUAL_CARTESIAN_POSITION_Z,
-                f::ACTUAL_CARTESIAN_POSITION_RX,
-                f::ACTUAL_CARTESIAN_POSITION_RY,
-                f::ACTUAL_CARTESIAN_POSITION_RZ,
-            ]),
-            joints_deg: read([
-                f::ACTUAL_JOINT_POSITION_J1,
-                f::ACTUAL_JOINT_POSITION_J2,
-                f::ACTUAL_JOINT_POSITION_J3,
-                f::ACTUAL_JOINT_POSITION_J4,
-                f::ACTUAL_JOINT_POSITION_J5,
-                f::ACTUAL_JOINT_POSITION_J6,
-            ]),
+            cartesian: read(f::ACTUAL_CARTESIAN_POSITION_X_RZ),
+            joints_deg: read(f::ACTUAL_JOINT_POSITION_J1_J6),
         }
     }
 }

@@ -227,14 +227,7 @@ impl FakeRobot {
                 use tables::read_actual_position::response as f;
                 let joints = self.joints;
                 self.respond(cmd_id, f::LEN, ok(state::DONE), |w| {
-                    let fields = [
-                        f::ACTUAL_JOINT_POSITION_J1,
-                        f::ACTUAL_JOINT_POSITION_J2,
-                        f::ACTUAL_JOINT_POSITION_J3,
-                        f::ACTUAL_JOINT_POSITION_J4,
-                        f::ACTUAL_JOINT_POSITION_J5,
-                        f::ACTUAL_JOINT_POSITION_J6,
-                    ];
+                    let fields = f::ACTUAL_JOINT_POSITION_J1_J6;
                     for (field, q) in fields.into_iter().zip(joints) {
                         w.set_f32(field, q);
                     }
@@ -253,15 +246,7 @@ impl FakeRobot {
                         self.respond(m.cmd_id, 10, aborted, |_| {});
                     }
                 }
-                let target = [
-                    q::JOINT_POSITION_J1,
-                    q::JOINT_POSITION_J2,
-                    q::JOINT_POSITION_J3,
-                    q::JOINT_POSITION_J4,
-                    q::JOINT_POSITION_J5,
-                    q::JOINT_POSITION_J6,
-                ]
-                .map(|f| r.f32(f));
+                let target = q::JOINT_POSITION_J1_J6.map(|f| r.f32(f));
                 self.moves.push_back(Move {
                     cmd_id,
                     par_seq: h.par_seq,

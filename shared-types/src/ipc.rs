@@ -222,6 +222,34 @@ pub struct MotionStatus {
     pub reserved: u16,
 }
 
+impl MotionStatus {
+    /// The status of planner `instance` before anything happened: no events, no jobs, at
+    /// rest at zero, the given override.
+    pub fn initial(instance: u64, override_fraction: f64) -> Self {
+        Self {
+            instance,
+            tick: 0,
+            acked_seq: 0,
+            acked_issuer: 0,
+            event_head: 0,
+            events: [JobEvent::default(); JOB_EVENTS],
+            active_job: 0,
+            queued_jobs: 0,
+            active_progress: 0.0,
+            joints_rad: [0.0; AXES],
+            joint_velocities: [0.0; AXES],
+            flange_pose: [0.0; 6],
+            override_fraction,
+            moving: false,
+            accelerating: false,
+            decelerating: false,
+            constant_velocity: false,
+            error_code: 0,
+            reserved: 0,
+        }
+    }
+}
+
 /// One point of a joint trajectory.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
@@ -308,6 +336,27 @@ pub struct ServoFeedback {
     /// Ticks with no setpoint for them, and ticks that started late.
     pub setpoint_misses: u64,
     pub overruns: u64,
+}
+
+impl ServoFeedback {
+    /// Drives of servo `instance` standing still at `q` in `state`, no fault, tick 0.
+    pub fn at_rest(instance: u64, q: [f64; AXES], state: DriveState, period_ns: u64) -> Self {
+        Self {
+            instance,
+            tick: 0,
+            time_ns: 0,
+            period_ns,
+            q,
+            qd: [0.0; AXES],
+            state: state as u8,
+            reserved: 0,
+            fault_code: 0,
+            reserved2: 0,
+            control_seq: 0,
+            setpoint_misses: 0,
+            overruns: 0,
+        }
+    }
 }
 
 /// interpreter → servo: requested power state (topic `servo/control`); latest value wins.

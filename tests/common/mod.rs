@@ -223,3 +223,51 @@ pub fn cycles_until(
     }
     false
 }
+
+/// Moves to `target` (degrees) at `velocity_rate` percent, expects DONE, and returns the
+/// largest joint deviation of the position read back afterwards.
+pub fn move_to(
+    runner: &mut CycleRunner<TcpTransport>,
+    target: [f64; 6],
+    velocity_rate: f64,
+) -> f64 {
+    let mut m = plc_client::MoveAxesAbsolute::to(target);
+    m.velocity_rate = Some(velocity_rate);
+    m.acceleration_rate = Some(velocity_rate);
+    let s = execute(
+        runner,
+        &Request::MoveAxesAbsolute(m),
+        Duration::from_secs(15),
+    );
+    assert_eq!(
+        (s.state, s.code),
+        (state::DONE, 0),
+        "move to {target:?}: {s:?}"
+    );
+    let reached = actual_joints(runner);
+    max_deviation(reached, target)
+}
+
+/// Largest absolute difference of two joint vectors.
+pub fn max_deviation(a: [f64; 6], b: [f64; 6]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Starts a move to `target` at 10 % velocity and returns once it has run for 300 ms.
+pub fn start_slow_move(
+    runner: &mut CycleRunner<TcpTransport>,
+    target: [f64; 6],
+) -> plc_client::CommandHandle {
+    let mut m = plc_client::MoveAxesAbsolute::to(target);
+    m.velocity_rate = Some(10.0);
+    let handle = runner
+        .task_mut()
+        .submit(&Request::MoveAxesAbsolute(m))
+        .expect("submit");
+    run_until_state(runner, handle, state::ACTIVE, Duration::from_secs(5));
+    runner.run_for(Duration::from_millis(300)).expect("moving");
+    handle
+}

@@ -211,27 +211,9 @@ mod tests {
     use shared_types::srci::message::state;
 
     fn status(instance: u64, acked: u64, events: &[(u64, u32, u8)]) -> MotionStatus {
-        let mut s = MotionStatus {
-            instance,
-            tick: 0,
-            acked_seq: acked,
-            acked_issuer: 7,
-            event_head: 0,
-            events: [JobEvent::default(); JOB_EVENTS],
-            active_job: 0,
-            queued_jobs: 0,
-            active_progress: 0.0,
-            joints_rad: [0.0; 6],
-            joint_velocities: [0.0; 6],
-            flange_pose: [0.0; 6],
-            override_fraction: 1.0,
-            moving: false,
-            accelerating: false,
-            decelerating: false,
-            constant_velocity: false,
-            error_code: 0,
-            reserved: 0,
-        };
+        let mut s = MotionStatus::initial(instance, 1.0);
+        s.acked_seq = acked;
+        s.acked_issuer = 7;
         for &(n, job, st) in events {
             s.events[(n % JOB_EVENTS as u64) as usize] = JobEvent {
                 number: n,

@@ -255,45 +255,12 @@ fn request(command_type: u16, mode: u8, len: usize) -> Vec<u8> {
 const NEW: u8 = FragmentAction::RESET | FragmentAction::COMPLETE;
 
 fn feedback(state: DriveState) -> ServoFeedback {
-    ServoFeedback {
-        instance: 1,
-        tick: 1,
-        time_ns: 0,
-        period_ns: 1_000_000,
-        q: [0.0, 1.57, 1.57, 1.57, -1.57, 0.0],
-        qd: [0.0; 6],
-        state: state as u8,
-        reserved: 0,
-        fault_code: 0,
-        reserved2: 0,
-        control_seq: 0,
-        setpoint_misses: 0,
-        overruns: 0,
-    }
+    ServoFeedback::at_rest(1, [0.0, 1.57, 1.57, 1.57, -1.57, 0.0], state, 1_000_000)
 }
 
 fn status(instance: u64, events: &[(u64, u32, u8, u16)]) -> MotionStatus {
-    let mut s = MotionStatus {
-        instance,
-        tick: 0,
-        acked_seq: 0,
-        acked_issuer: 0,
-        event_head: 0,
-        events: [JobEvent::default(); JOB_EVENTS],
-        active_job: 0,
-        queued_jobs: 0,
-        active_progress: 0.0,
-        joints_rad: [0.0; 6],
-        joint_velocities: [0.0; 6],
-        flange_pose: [0.5, 0.1, 0.2, 0.0, 0.0, 0.0],
-        override_fraction: 1.0,
-        moving: false,
-        accelerating: false,
-        decelerating: false,
-        constant_velocity: false,
-        error_code: 0,
-        reserved: 0,
-    };
+    let mut s = MotionStatus::initial(instance, 1.0);
+    s.flange_pose = [0.5, 0.1, 0.2, 0.0, 0.0, 0.0];
     for &(n, job, st, c) in events {
         s.events[(n % JOB_EVENTS as u64) as usize] = JobEvent {
             number: n,
@@ -305,6 +272,17 @@ fn status(instance: u64, events: &[(u64, u32, u8, u16)]) -> MotionStatus {
         s.event_head = n;
     }
     s
+}
+
+/// An initialized session with a live planner (instance 5) and drives in `drives`.
+fn session(drives: DriveState) -> (Server, Plc, Effects) {
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.initialize(&mut server);
+    let mut fx = Effects::new();
+    server.on_motion_status(plc.now(), &status(5, &[]), &mut fx);
+    server.on_servo_feedback(plc.now(), &feedback(drives), &mut fx);
+    (server, plc, fx)
 }
 
 #[test]
@@ -438,12 +416,7 @@ fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
 
 #[test]
 fn move_needs_enabled_drives_and_reports_planner_events() {
-    let mut server = Server::new(settings(256), 9);
-    let mut plc = Plc::new(256);
-    plc.initialize(&mut server);
-    let mut fx = Effects::new();
-    server.on_motion_status(plc.now(), &status(5, &[]), &mut fx);
-    server.on_servo_feedback(plc.now(), &feedback(DriveState::Powered), &mut fx);
+    let (mut server, mut plc, mut fx) = session(DriveState::Powered);
     let mut msg = request(
         t::move_axes_absolute::TYPE,
         0,
@@ -510,12 +483,7 @@ fn move_needs_enabled_drives_and_reports_planner_events() {
 
 #[test]
 fn planner_restart_ends_moves_with_an_error_until_group_reset() {
-    let mut server = Server::new(settings(256), 9);
-    let mut plc = Plc::new(256);
-    plc.initialize(&mut server);
-    let mut fx = Effects::new();
-    server.on_motion_status(plc.now(), &status(5, &[]), &mut fx);
-    server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
     let mut msg = request(
         t::move_axes_absolute::TYPE,
         0,
@@ -609,12 +577,7 @@ fn read_messages_delivers_and_takes_acknowledgements() {
 
 #[test]
 fn steady_state_telegrams_do_not_allocate() {
-    let mut server = Server::new(settings(256), 9);
-    let mut plc = Plc::new(256);
-    plc.initialize(&mut server);
-    let mut fx = Effects::new();
-    server.on_motion_status(plc.now(), &status(5, &[]), &mut fx);
-    server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
     let mut rm = request(t::read_messages::TYPE, 2, t::read_messages::request::LEN);
     PayloadWriter::new(&mut rm).set_u8(t::read_messages::request::MESSAGE_LEVEL, 20);
     plc.command(&mut server, 1, NEW, &rm);

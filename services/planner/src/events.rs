@@ -78,34 +78,10 @@ impl EventLog {
 mod tests {
     use super::*;
 
-    fn status() -> MotionStatus {
-        MotionStatus {
-            instance: 1,
-            tick: 0,
-            acked_seq: 0,
-            acked_issuer: 0,
-            event_head: 0,
-            events: [JobEvent::default(); JOB_EVENTS],
-            active_job: 0,
-            queued_jobs: 0,
-            active_progress: 0.0,
-            joints_rad: [0.0; 6],
-            joint_velocities: [0.0; 6],
-            flange_pose: [0.0; 6],
-            override_fraction: 1.0,
-            moving: false,
-            accelerating: false,
-            decelerating: false,
-            constant_velocity: false,
-            error_code: 0,
-            reserved: 0,
-        }
-    }
-
     #[test]
     fn a_burst_is_paced_and_a_slow_reader_still_sees_every_event() {
         let mut log = EventLog::with_capacity(300);
-        let mut s = status();
+        let mut s = MotionStatus::initial(1, 1.0);
         for job in 1..=200 {
             log.push(job, 14, 0x6C05);
         }
@@ -131,7 +107,7 @@ mod tests {
     #[test]
     fn small_bursts_enter_the_ring_at_once_and_overflow_is_counted() {
         let mut log = EventLog::with_capacity(2);
-        let mut s = status();
+        let mut s = MotionStatus::initial(1, 1.0);
         log.push(1, 2, 0);
         log.push(1, 4, 0);
         log.push(1, 10, 0);

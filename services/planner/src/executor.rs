@@ -8,8 +8,8 @@
 
 use shared_types::config::Config;
 use shared_types::ipc::{
-    AXES, DriveState, JOB_EVENTS, JobEvent, JointPoint, MotionCommand, MotionCommandKind,
-    MotionStatus, SETPOINT_WINDOW, ServoFeedback, ServoSetpoint,
+    AXES, DriveState, JointPoint, MotionCommand, MotionCommandKind, MotionStatus, SETPOINT_WINDOW,
+    ServoFeedback, ServoSetpoint,
 };
 use shared_types::srci::message::{code, state};
 
@@ -58,27 +58,7 @@ impl Executor {
         let queue_length = usize::from(config.main.planner.queue_length);
         // The interpreter starts with the same override and sends every change.
         let override_fraction = config.main.interpreter.initial_override_percent / 100.0;
-        let status = MotionStatus {
-            instance,
-            tick: 0,
-            acked_seq: 0,
-            acked_issuer: 0,
-            event_head: 0,
-            events: [JobEvent::default(); JOB_EVENTS],
-            active_job: 0,
-            queued_jobs: 0,
-            active_progress: 0.0,
-            joints_rad: [0.0; AXES],
-            joint_velocities: [0.0; AXES],
-            flange_pose: [0.0; 6],
-            override_fraction,
-            moving: false,
-            accelerating: false,
-            decelerating: false,
-            constant_velocity: false,
-            error_code: 0,
-            reserved: 0,
-        };
+        let status = MotionStatus::initial(instance, override_fraction);
         Self {
             dynamics: Dynamics {
                 limits: config.robot.limits_rad(),

@@ -14,21 +14,9 @@ use shared_types::ipc::{
 use shared_types::srci::message::state;
 
 fn feedback(tick: u64, q: [f64; AXES]) -> ServoFeedback {
-    ServoFeedback {
-        instance: 42,
-        tick,
-        time_ns: 0,
-        period_ns: 1_000_000,
-        q,
-        qd: [0.0; AXES],
-        state: DriveState::Holding as u8,
-        reserved: 0,
-        fault_code: 0,
-        reserved2: 0,
-        control_seq: 0,
-        setpoint_misses: 0,
-        overruns: 0,
-    }
+    let mut f = ServoFeedback::at_rest(42, q, DriveState::Holding, 1_000_000);
+    f.tick = tick;
+    f
 }
 
 #[test]

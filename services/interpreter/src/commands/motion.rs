@@ -62,14 +62,7 @@ fn decode_move_axes(msg: &[u8], h: CommandHeader) -> Result<MotionCommand, u16> 
         2 | 3 | 4 | 10 | 11 | 12 => return Err(code::BLENDING_MODE_NOT_SUPPORTED),
         _ => return Err(code::INVALID_BLENDING_MODE),
     }
-    let fields = [
-        maa::request::JOINT_POSITION_J1,
-        maa::request::JOINT_POSITION_J2,
-        maa::request::JOINT_POSITION_J3,
-        maa::request::JOINT_POSITION_J4,
-        maa::request::JOINT_POSITION_J5,
-        maa::request::JOINT_POSITION_J6,
-    ];
+    let fields = maa::request::JOINT_POSITION_J1_J6;
     let mut joints = [0.0; AXES];
     for (q, f) in joints.iter_mut().zip(fields) {
         let deg = r.f32(f);

@@ -203,14 +203,7 @@ impl Server {
             w.set_u8(rap::response::TOOL_NO_RETURN, 0);
             w.set_u8(rap::response::FRAME_NO_RETURN, 0);
             let p = status.flange_pose;
-            let cart = [
-                rap::response::ACTUAL_CARTESIAN_POSITION_X,
-                rap::response::ACTUAL_CARTESIAN_POSITION_Y,
-                rap::response::ACTUAL_CARTESIAN_POSITION_Z,
-                rap::response::ACTUAL_CARTESIAN_POSITION_RX,
-                rap::response::ACTUAL_CARTESIAN_POSITION_RY,
-                rap::response::ACTUAL_CARTESIAN_POSITION_RZ,
-            ];
+            let cart = rap::response::ACTUAL_CARTESIAN_POSITION_X_RZ;
             for (k, f) in cart.into_iter().enumerate() {
                 let v = if k < 3 {
                     p[k] * 1000.0
@@ -219,14 +212,7 @@ impl Server {
                 };
                 w.set_f32(f, v as f32);
             }
-            let joints = [
-                rap::response::ACTUAL_JOINT_POSITION_J1,
-                rap::response::ACTUAL_JOINT_POSITION_J2,
-                rap::response::ACTUAL_JOINT_POSITION_J3,
-                rap::response::ACTUAL_JOINT_POSITION_J4,
-                rap::response::ACTUAL_JOINT_POSITION_J5,
-                rap::response::ACTUAL_JOINT_POSITION_J6,
-            ];
+            let joints = rap::response::ACTUAL_JOINT_POSITION_J1_J6;
             for (f, q) in joints.into_iter().zip(feedback.q) {
                 w.set_f32(f, q.to_degrees() as f32);
             }

@@ -33,19 +33,8 @@ impl Rig {
         let mut rig = Self {
             executor: Executor::new(&cfg, 0xABCD),
             feedback: ServoFeedback {
-                instance: 5,
                 tick: 100,
-                time_ns: 0,
-                period_ns: 1_000_000,
-                q: home,
-                qd: [0.0; AXES],
-                state: DriveState::Holding as u8,
-                reserved: 0,
-                fault_code: 0,
-                reserved2: 0,
-                control_seq: 0,
-                setpoint_misses: 0,
-                overruns: 0,
+                ..ServoFeedback::at_rest(5, home, DriveState::Holding, 1_000_000)
             },
             limits: cfg.robot.limits_rad(),
             window: None,
