@@ -2,6 +2,7 @@
 
 use super::*;
 use shared_types::config::JointLimitsRad;
+use shared_types::ipc::{JOB_EVENTS, JobEvent};
 
 const DT: f64 = 1e-3;
 const ISSUER: u64 = 77;
