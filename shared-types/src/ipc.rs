@@ -11,8 +11,10 @@ use iceoryx2::prelude::*;
 pub const TELEGRAM_CAPACITY: usize = 256;
 /// Number of joints of the arm.
 pub const AXES: usize = 6;
-/// Number of future ticks a planner setpoint window covers.
-pub const SETPOINT_WINDOW: usize = 4;
+/// Number of future ticks a planner setpoint window covers: the servo follows the plan through
+/// a planner wake-up that comes up to this many ticks late (scheduling hiccups of a loaded
+/// machine without real-time priorities reach several milliseconds).
+pub const SETPOINT_WINDOW: usize = 16;
 /// Number of recent per-command events the planner keeps in its status.
 pub const JOB_EVENTS: usize = 32;
 

@@ -138,6 +138,20 @@ impl Drop for Controller {
         if matches!(self.child.try_wait(), Ok(None)) {
             self.stop();
         }
+        if std::thread::panicking() {
+            // The test failed: show what the controller said, and keep its folder.
+            let log = self.log();
+            let tail: Vec<&str> = log.lines().rev().take(60).collect();
+            eprintln!(
+                "--- last lines of {} ---",
+                self.dir.join("rc.log").display()
+            );
+            for line in tail.into_iter().rev() {
+                eprintln!("{line}");
+            }
+        } else {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
     }
 }
 
