@@ -187,3 +187,23 @@ fn planner_killed_during_a_move_stops_the_arm_and_recovers_after_group_reset() {
     let deviation = move_to(&mut plc, HOME, 100.0);
     assert!(deviation < 0.01, "home reached within {deviation} deg");
 }
+
+#[test]
+fn invalid_config_fails_at_start_naming_file_key_and_range() {
+    let dir = std::env::temp_dir().join(format!("rc-test-badcfg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let file = dir.join("bad.toml");
+    let text = shared_types::config::EMBEDDED_DEFAULT.replace("period_us = 1000", "period_us = 20");
+    std::fs::write(&file, text).expect("write");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rc"))
+        .args(["run", "--config"])
+        .arg(&file)
+        .output()
+        .expect("run rc");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("bad.toml"), "{stderr}");
+    assert!(stderr.contains("servo.period_us = 20"), "{stderr}");
+    assert!(stderr.contains("250..=8000"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -328,7 +328,7 @@ impl Server {
     /// Leaves INITIALIZED for an error state: motion halts, commands of the session end.
     fn fail_session(&mut self, error_state: u8, now: Now, fx: &mut Effects, text: &str) {
         self.telegram_state = error_state;
-        self.halt_session(fx);
+        self.halt_session(now, fx);
         self.raise(
             now,
             MessageType::Interface,
@@ -339,15 +339,27 @@ impl Server {
     }
 
     /// Stops motion and forgets everything of the SRCI session (ACR, responses, sequences).
-    fn halt_session(&mut self, fx: &mut Effects) {
-        // Without room for Halt the queue is full of commands the planner has not taken yet;
-        // the link resends them, and the next poll retries the halt through `live` being empty.
-        let _ = self.motion.submit(
-            MotionCommand::new(MotionCommandKind::Halt),
-            None,
-            0,
-            &mut fx.motion,
-        );
+    fn halt_session(&mut self, now: Now, fx: &mut Effects) {
+        if self
+            .motion
+            .submit(
+                MotionCommand::new(MotionCommandKind::Halt),
+                None,
+                now.mono_ms,
+                &mut fx.motion,
+            )
+            .is_none()
+        {
+            // 64 commands the planner has not taken yet: it is not running, and a restarted
+            // planner starts standing still anyway.
+            self.raise(
+                now,
+                MessageType::Controller,
+                severity::WARNING,
+                code::INTERNAL_ERROR,
+                "halt not queued: the planner is not taking commands",
+            );
+        }
         self.motion.forget_jobs();
         self.acr.clear();
         self.responses.clear();
@@ -364,7 +376,7 @@ impl Server {
                 if self.telegram_state != ts::READY_FOR_INITIALIZATION =>
             {
                 if self.telegram_state == ts::INITIALIZED {
-                    self.halt_session(fx);
+                    self.halt_session(now, fx);
                 }
                 self.telegram_state = ts::READY_FOR_INITIALIZATION;
                 self.raise(
