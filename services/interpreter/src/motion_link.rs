@@ -257,8 +257,8 @@ mod tests {
         assert!(out.is_empty(), "acknowledged commands are not re-sent");
     }
 
-    #[test]
-    fn planner_restart_fails_jobs_in_flight() {
+    /// A link to planner instance 1 with one move (CmdID 3) sent.
+    fn one_move_in_flight() -> (MotionLink, Vec<MotionCommand>, Vec<JobUpdate>) {
         let mut link = MotionLink::new(7, 4, 100);
         let (mut out, mut updates) = (Vec::new(), Vec::new());
         link.on_status(&status(1, 0, &[]), 0, 0x6C02, &mut updates);
@@ -268,6 +268,12 @@ mod tests {
             0,
             &mut out,
         );
+        (link, out, updates)
+    }
+
+    #[test]
+    fn planner_restart_fails_jobs_in_flight() {
+        let (mut link, mut out, mut updates) = one_move_in_flight();
         let fault = link.on_status(&status(2, 0, &[]), 10, 0x6C02, &mut updates);
         assert_eq!(fault, Some(PlannerFault::Restarted));
         assert_eq!((updates[0].state, updates[0].code), (state::ERROR, 0x6C02));
@@ -275,15 +281,7 @@ mod tests {
 
     #[test]
     fn silent_planner_fails_jobs_once() {
-        let mut link = MotionLink::new(7, 4, 100);
-        let (mut out, mut updates) = (Vec::new(), Vec::new());
-        link.on_status(&status(1, 0, &[]), 0, 0x6C02, &mut updates);
-        link.submit(
-            MotionCommand::new(MotionCommandKind::MoveAxes),
-            Some((3, 1, 2101)),
-            0,
-            &mut out,
-        );
+        let (mut link, mut out, mut updates) = one_move_in_flight();
         assert_eq!(
             link.poll(150, 0x6C02, &mut out, &mut updates),
             Some(PlannerFault::Silent)
