@@ -273,7 +273,7 @@ mod tests {
 
     #[test]
     fn planner_restart_fails_jobs_in_flight() {
-        let (mut link, mut out, mut updates) = one_move_in_flight();
+        let (mut link, _, mut updates) = one_move_in_flight();
         let fault = link.on_status(&status(2, 0, &[]), 10, 0x6C02, &mut updates);
         assert_eq!(fault, Some(PlannerFault::Restarted));
         assert_eq!((updates[0].state, updates[0].code), (state::ERROR, 0x6C02));
