@@ -89,6 +89,30 @@ pub struct MainConfig {
     pub planner: PlannerConfig,
     pub servo: ServoConfig,
     pub orchestrator: OrchestratorConfig,
+    /// Scheduling of each service's cyclic thread.
+    pub realtime: RealtimeConfig,
+}
+
+/// `[realtime]`: per service, off by default so that no privileges are needed.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RealtimeConfig {
+    pub fieldbus: ThreadScheduling,
+    pub interpreter: ThreadScheduling,
+    pub planner: ThreadScheduling,
+    pub servo: ThreadScheduling,
+}
+
+/// `[realtime.<service>]`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThreadScheduling {
+    /// 0 = normal scheduling (SCHED_OTHER); 1..=99 = SCHED_FIFO with this priority.
+    pub priority: u8,
+    /// CPU to pin the service to; -1 = any.
+    pub cpu: i16,
+    /// Lock all memory (mlockall) and prefault the stack.
+    pub lock_memory: bool,
 }
 
 /// `[fieldbus]`.
@@ -122,6 +146,9 @@ pub struct InterpreterConfig {
     /// Identity reported by ReadRobotData.
     pub manufacturer: String,
     pub serial_number: String,
+    /// Folder of the persistent user data (tools, frames, loads, dynamics, SW limits).
+    /// Empty: `$XDG_STATE_HOME/rc/<instance>` (or `~/.local/state/rc/<instance>`).
+    pub data_dir: String,
 }
 
 /// `[planner]`.
@@ -333,6 +360,21 @@ impl Checker<'_> {
 }
 
 impl MainConfig {
+    /// The folder of the persistent user data (see [`InterpreterConfig::data_dir`]).
+    pub fn data_dir(&self) -> PathBuf {
+        if !self.interpreter.data_dir.is_empty() {
+            return PathBuf::from(&self.interpreter.data_dir);
+        }
+        let base = std::env::var_os("XDG_STATE_HOME")
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+            .or_else(|| {
+                std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local").join("state"))
+            })
+            .unwrap_or_else(|| std::env::temp_dir());
+        base.join("rc").join(&self.instance)
+    }
+
     fn validate(&self, file: &str) -> Result<(), ConfigError> {
         let c = Checker { file };
         let name_ok = !self.instance.is_empty()
@@ -423,6 +465,16 @@ impl MainConfig {
             16,
         )?;
         c.range("planner.queue_length", self.planner.queue_length, 1, 256)?;
+        let rt = &self.realtime;
+        for (name, t) in [
+            ("fieldbus", &rt.fieldbus),
+            ("interpreter", &rt.interpreter),
+            ("planner", &rt.planner),
+            ("servo", &rt.servo),
+        ] {
+            c.range(&format!("realtime.{name}.priority"), t.priority, 0, 99)?;
+            c.range(&format!("realtime.{name}.cpu"), t.cpu, -1, 1023)?;
+        }
         c.range(
             "planner.override_reserve",
             self.planner.override_reserve,

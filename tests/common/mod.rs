@@ -47,7 +47,11 @@ impl Controller {
         std::fs::create_dir_all(&dir).expect("test dir");
         let text = shared_types::config::EMBEDDED_DEFAULT
             .replace("instance = \"rc\"", &format!("instance = \"{instance}\""))
-            .replace("127.0.0.1:5000", &format!("127.0.0.1:{port}"));
+            .replace("127.0.0.1:5000", &format!("127.0.0.1:{port}"))
+            .replace(
+                "data_dir = \"\"",
+                &format!("data_dir = \"{}\"", dir.join("data").display()),
+            );
         let config = dir.join("default.toml");
         std::fs::write(&config, edit(text)).expect("write config");
         let log = std::fs::File::create(dir.join("rc.log")).expect("log file");
