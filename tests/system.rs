@@ -9,7 +9,7 @@ use common::{
     Controller, actual_joints, cycles_until, execute, initialize, max_deviation, move_to,
     reset_and_enable, run_until_state, start_slow_move,
 };
-use plc_client::{EngineOptions, Request};
+use plc_client::{EngineOptions, MoveAxesAbsolute, Request};
 use shared_types::srci::message::{code, state};
 use shared_types::srci::tables as t;
 use shared_types::srci::telegram::telegram_state as ts;
@@ -206,4 +206,87 @@ fn invalid_config_fails_at_start_naming_file_key_and_range() {
     assert!(stderr.contains("servo.period_us = 20"), "{stderr}");
     assert!(stderr.contains("250..=8000"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A header-only command (GroupStop, GroupInterrupt, GroupContinue).
+fn group_command(command_type: u16) -> Request {
+    Request::Raw {
+        command_type,
+        execution_mode: 2,
+        payload: Vec::new(),
+    }
+}
+
+#[test]
+fn group_interrupt_holds_on_the_path_and_group_continue_finishes_the_move() {
+    let c = Controller::start("intr");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    let target = [50.0, 110.0, 60.0, 70.0, -60.0, 60.0];
+    let handle = start_slow_move(&mut plc, target);
+    let s = execute(
+        &mut plc,
+        &group_command(t::group_interrupt::TYPE),
+        Duration::from_secs(5),
+    );
+    assert_eq!((s.state, s.code), (state::DONE, 0), "GroupInterrupt: {s:?}");
+    let moving = plc.task().status(handle).cloned().expect("move status");
+    assert_eq!(
+        (moving.state, moving.code),
+        (state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT),
+        "{moving:?}"
+    );
+    let paused = shared_types::srci::telegram::status_bit::PRIMARY_SEQUENCE_PAUSED;
+    assert_ne!(
+        plc.task().status_word() & paused,
+        0,
+        "PrimarySequencePaused"
+    );
+    assert!(!plc.task().is_moving());
+    let held = actual_joints(&mut plc);
+    plc.run_for(Duration::from_millis(300)).expect("cycles");
+    assert!(max_deviation(held, actual_joints(&mut plc)) < 1e-3, "holds");
+
+    let s = execute(
+        &mut plc,
+        &group_command(t::group_continue::TYPE),
+        Duration::from_secs(5),
+    );
+    assert_eq!((s.state, s.code), (state::DONE, 0), "GroupContinue: {s:?}");
+    let done = run_until_state(&mut plc, handle, state::DONE, Duration::from_secs(30));
+    assert_eq!((done.state, done.code), (state::DONE, 0), "{done:?}");
+    assert_eq!(plc.task().status_word() & paused, 0);
+    assert!(max_deviation(actual_joints(&mut plc), target) < 0.01);
+}
+
+#[test]
+fn group_stop_aborts_the_running_and_the_buffered_moves() {
+    let c = Controller::start("stop");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    let first = start_slow_move(&mut plc, [30.0, 100.0, 80.0, 80.0, -80.0, 20.0]);
+    let second = plc
+        .task_mut()
+        .submit(&Request::MoveAxesAbsolute(MoveAxesAbsolute::to(HOME)))
+        .expect("submit");
+    run_until_state(&mut plc, second, state::BUFFERED, Duration::from_secs(5));
+    let s = execute(
+        &mut plc,
+        &group_command(t::group_stop::TYPE),
+        Duration::from_secs(5),
+    );
+    assert_eq!((s.state, s.code), (state::DONE, 0), "GroupStop: {s:?}");
+    let aborted_sequence = s.response.get(4).copied();
+    assert_eq!(aborted_sequence, Some(1), "AbortedSequence: {s:?}");
+    for handle in [first, second] {
+        let m = plc.task().status(handle).cloned().expect("status");
+        assert_eq!(
+            (m.state, m.code),
+            (state::ABORTED, code::ABORTED_BY_GROUP_STOP),
+            "{m:?}"
+        );
+    }
+    assert!(!plc.task().is_moving());
 }

@@ -371,7 +371,7 @@ impl MainConfig {
             .or_else(|| {
                 std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local").join("state"))
             })
-            .unwrap_or_else(|| std::env::temp_dir());
+            .unwrap_or_else(std::env::temp_dir);
         base.join("rc").join(&self.instance)
     }
 

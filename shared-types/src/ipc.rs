@@ -107,6 +107,10 @@ pub enum MotionCommandKind {
     Reset = 4,
     /// The PLC link was lost or reset: stop on the path and discard everything, no error.
     Halt = 5,
+    /// GroupInterrupt: stop on the path and hold the primary sequence, keeping its moves.
+    Interrupt = 6,
+    /// GroupContinue: resume the interrupted primary sequence on its path.
+    Continue = 7,
 }
 
 impl MotionCommandKind {
@@ -118,6 +122,8 @@ impl MotionCommandKind {
             3 => Self::Override,
             4 => Self::Reset,
             5 => Self::Halt,
+            6 => Self::Interrupt,
+            7 => Self::Continue,
             _ => return None,
         })
     }
@@ -219,6 +225,8 @@ pub struct MotionStatus {
     pub accelerating: bool,
     pub decelerating: bool,
     pub constant_velocity: bool,
+    /// The primary sequence is interrupted (GroupInterrupt) until GroupContinue.
+    pub sequence_paused: bool,
     /// Pending planner error (SRCI code), 0 = none. Cleared by `Reset`.
     pub error_code: u16,
     pub reserved: u16,
@@ -246,6 +254,7 @@ impl MotionStatus {
             accelerating: false,
             decelerating: false,
             constant_velocity: false,
+            sequence_paused: false,
             error_code: 0,
             reserved: 0,
         }

@@ -626,7 +626,9 @@ impl Server {
             if s.moving {
                 w |= status_bit::IS_MOVING;
             }
-            if s.active_job != 0 || s.queued_jobs != 0 {
+            if s.sequence_paused {
+                w |= status_bit::PRIMARY_SEQUENCE_PAUSED | (2 << status_bit::SEQUENCE_STATE_SHIFT);
+            } else if s.active_job != 0 || s.queued_jobs != 0 {
                 w |= 1 << status_bit::SEQUENCE_STATE_SHIFT;
             }
             if s.accelerating {

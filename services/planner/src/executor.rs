@@ -45,6 +45,10 @@ pub struct Executor {
     override_target: f64,
     /// A GroupStop waiting for the arm to stand still.
     pending_stop: Option<u32>,
+    /// A GroupInterrupt waiting for the arm to stand still.
+    pending_interrupt: Option<u32>,
+    /// The command of the move taken from the queue last (the running one, if any).
+    running: Option<MotionCommand>,
     /// `(issuer, seq)` of the newest accepted command.
     accepted: Option<(u64, u64)>,
     events: EventLog,
@@ -74,6 +78,8 @@ impl Executor {
             last_fault: 0,
             override_target: override_fraction,
             pending_stop: None,
+            pending_interrupt: None,
+            running: None,
             accepted: None,
             // Bursts end at most the whole queue plus a few commands per move.
             events: EventLog::with_capacity(4 * queue_length + EVENT_SLACK),
@@ -211,6 +217,14 @@ impl Executor {
                 }
             }
             Some(MotionCommandKind::Halt) => self.stop(code::ABORTED_BY_GROUP_STOP),
+            Some(MotionCommandKind::Interrupt) => self.interrupt(job),
+            Some(MotionCommandKind::Continue) => {
+                self.motion.sequence_paused = false;
+                if let Some(previous) = self.pending_interrupt.take() {
+                    self.report(previous, state::ABORTED, code::ABORTED_BY_MOTION_COMMAND);
+                }
+                self.report(job, state::DONE, 0);
+            }
             Some(MotionCommandKind::Override) => {
                 let fraction = command.override_fraction;
                 if (0.0..=1.0).contains(&fraction) {
@@ -268,6 +282,26 @@ impl Executor {
         }
     }
 
+    /// GroupInterrupt: brakes the running move on its path and puts it back at the front of
+    /// the sequence, which holds until GroupContinue; done once the arm stands.
+    fn interrupt(&mut self, job: u32) {
+        self.motion.sequence_paused = true;
+        if let Some(interrupted) = self.motion.brake() {
+            if let Some(command) = self.running.filter(|c| c.job == interrupted) {
+                // Room is kept for exactly this move; continuing plans it again from the stop.
+                let _ = self.queue.push_front(command);
+            }
+            self.report(
+                interrupted,
+                state::INTERRUPTED,
+                code::INTERRUPTED_BY_GROUP_INTERRUPT,
+            );
+        }
+        if let Some(previous) = self.pending_interrupt.replace(job) {
+            self.report(previous, state::DONE, 0);
+        }
+    }
+
     /// Brakes the running move on its path and ends it and every buffered move ABORTED.
     fn stop(&mut self, reason: u16) {
         if let Some(job) = self.motion.brake() {
@@ -275,6 +309,10 @@ impl Executor {
         }
         while let Some(command) = self.queue.pop_front() {
             self.report(command.job, state::ABORTED, reason);
+        }
+        // Nothing is left to continue.
+        if reason == code::ABORTED_BY_GROUP_STOP {
+            self.motion.sequence_paused = false;
         }
     }
 
@@ -305,13 +343,15 @@ impl Executor {
         self.motion.phase != Phase::Idle || !self.queue.is_empty()
     }
 
-    /// A pending GroupStop is done once the commanded arm stands.
+    /// A pending GroupStop or GroupInterrupt is done once the commanded arm stands.
     fn finish_stop(&mut self) {
-        if self.synced
-            && self.motion.phase == Phase::Idle
-            && let Some(job) = self.pending_stop.take()
-        {
-            self.report(job, state::DONE, 0);
+        if self.synced && self.motion.phase == Phase::Idle {
+            if let Some(job) = self.pending_stop.take() {
+                self.report(job, state::DONE, 0);
+            }
+            if let Some(job) = self.pending_interrupt.take() {
+                self.report(job, state::DONE, 0);
+            }
         }
     }
 
@@ -329,7 +369,7 @@ impl Executor {
             &mut |job, state, code| events.push(job, state, code),
         );
         for _ in 0..cursor {
-            self.queue.pop_front();
+            self.running = self.queue.pop_front();
         }
         self.tick = self.tick.wrapping_add(1);
     }
@@ -381,6 +421,7 @@ impl Executor {
         s.joint_velocities = point.qd;
         s.flange_pose = self.kinematics.flange_pose(&point.q);
         s.override_fraction = self.override_target;
+        s.sequence_paused = self.motion.sequence_paused;
         // The sign of q̇·q̈ tells speeding up from slowing down along the straight joint path.
         let power: f64 = point.qd.iter().zip(&point.qdd).map(|(v, a)| v * a).sum();
         s.moving = point.qd.iter().any(|v| v.abs() > MOVING_VELOCITY);

@@ -44,6 +44,8 @@ pub struct Motion {
     sigma_rate: f64,
     /// What the arm is doing.
     pub phase: Phase,
+    /// GroupInterrupt holds the primary sequence: a standing arm starts no queued move.
+    pub sequence_paused: bool,
 }
 
 impl Motion {
@@ -58,6 +60,7 @@ impl Motion {
             sigma,
             sigma_rate: 0.0,
             phase: Phase::Idle,
+            sequence_paused: false,
         }
     }
 
@@ -105,6 +108,9 @@ impl Motion {
         match self.phase {
             Phase::Idle => {
                 self.stand(override_target);
+                if self.sequence_paused {
+                    return;
+                }
                 let Some(command) = queue.get(*cursor) else {
                     return;
                 };

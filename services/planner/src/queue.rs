@@ -5,7 +5,9 @@ use shared_types::ipc::{MotionCommand, MotionCommandKind};
 /// Buffered MoveAxes commands in execution order.
 #[derive(Debug)]
 pub struct MoveQueue {
+    /// One slot more than `limit`: room for an interrupted move put back at the front.
     slots: Box<[MotionCommand]>,
+    limit: usize,
     head: usize,
     len: usize,
 }
@@ -13,9 +15,11 @@ pub struct MoveQueue {
 impl MoveQueue {
     /// An empty queue for `capacity` moves (at least one).
     pub fn with_capacity(capacity: usize) -> Self {
+        let limit = capacity.max(1);
         Self {
-            slots: vec![MotionCommand::new(MotionCommandKind::MoveAxes); capacity.max(1)]
+            slots: vec![MotionCommand::new(MotionCommandKind::MoveAxes); limit + 1]
                 .into_boxed_slice(),
+            limit,
             head: 0,
             len: 0,
         }
@@ -33,11 +37,23 @@ impl MoveQueue {
 
     /// Appends `command`; gives it back when the queue is full.
     pub fn push(&mut self, command: MotionCommand) -> Result<(), MotionCommand> {
-        if self.len == self.slots.len() {
+        if self.len >= self.limit {
             return Err(command);
         }
         let tail = (self.head + self.len) % self.slots.len();
         self.slots[tail] = command;
+        self.len += 1;
+        Ok(())
+    }
+
+    /// Puts an interrupted move back at the front, to run again on continue. There is always
+    /// room for the one move that was running.
+    pub fn push_front(&mut self, command: MotionCommand) -> Result<(), MotionCommand> {
+        if self.len == self.slots.len() {
+            return Err(command);
+        }
+        self.head = (self.head + self.slots.len() - 1) % self.slots.len();
+        self.slots[self.head] = command;
         self.len += 1;
         Ok(())
     }
@@ -69,6 +85,18 @@ mod tests {
         let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
         c.job = n;
         c
+    }
+
+    #[test]
+    fn an_interrupted_move_goes_back_to_the_front_even_when_full() {
+        let mut q = MoveQueue::with_capacity(2);
+        q.push(job(2)).unwrap();
+        q.push(job(3)).unwrap();
+        assert!(q.push(job(4)).is_err());
+        q.push_front(job(1)).unwrap();
+        assert_eq!(q.len(), 3);
+        let order: Vec<u32> = core::iter::from_fn(|| q.pop_front().map(|c| c.job)).collect();
+        assert_eq!(order, [1, 2, 3]);
     }
 
     #[test]

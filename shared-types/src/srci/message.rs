@@ -137,7 +137,11 @@ pub mod code {
     pub const SW_LIMIT_REACHED: u16 = 0x6C04;
     pub const ABORTED_BY_GROUP_STOP: u16 = 0x6C05;
     pub const ABORTED_BY_MOTION_COMMAND: u16 = 0x6C06;
+    /// Command interrupted by the RA state INTERRUPTED (GroupInterrupt).
+    pub const INTERRUPTED_BY_GROUP_INTERRUPT: u16 = 0x6F01;
     pub const INTERRUPTED_NOT_ENABLED: u16 = 0x6F02;
+    /// GroupContinue not possible: robot not enabled.
+    pub const CONTINUE_NOT_ENABLED: u16 = 0x8C01;
     pub const SERVER_STATE_RESET: u16 = 0x6A03;
     pub const ROBOT_DISABLED: u16 = 0x8C03;
     pub const DISABLED_DUE_TO_ERROR: u16 = 0x8C04;

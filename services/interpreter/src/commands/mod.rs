@@ -10,12 +10,14 @@ use shared_types::srci::message::{
 };
 use shared_types::srci::tables as t;
 
+use shared_types::ipc::MotionCommandKind;
+
 use crate::messages::MessageType;
 use crate::server::{Effects, Now, Server};
 
 /// Command types this interpreter implements; RCSupportedFunctions announces exactly these.
 /// ReadActualPositionCyclic has no command type and is not offered yet.
-pub const IMPLEMENTED: [u16; 8] = [
+pub const IMPLEMENTED: [u16; 11] = [
     t::read_robot_data::TYPE,
     t::exchange_configuration::TYPE,
     t::read_messages::TYPE,
@@ -24,6 +26,9 @@ pub const IMPLEMENTED: [u16; 8] = [
     t::move_axes_absolute::TYPE,
     t::read_actual_position::TYPE,
     t::change_speed_override::TYPE,
+    t::group_stop::TYPE,
+    t::group_interrupt::TYPE,
+    t::group_continue::TYPE,
 ];
 
 /// A command that stays in the register after its first response.
@@ -57,11 +62,13 @@ pub enum LiveKind {
         since_ms: u64,
         reached: bool,
     },
-    /// A command executed by the planner as `job`; `progress` last sent (percent × 100).
+    /// A command executed by the planner as `job`; `progress` last sent (percent × 100);
+    /// `aborts_moves` for a GroupStop issued while moves were in flight (AbortedSequence).
     Job {
         job: u32,
         progress: u16,
         sent_ms: u64,
+        aborts_moves: bool,
     },
 }
 
@@ -71,6 +78,7 @@ pub fn describe(code: u16) -> &'static str {
         code::NOT_IMPLEMENTED => "command not implemented by this robot controller",
         code::INVALID_EXECUTION_MODE => "execution mode not valid for this command",
         code::ROBOT_DISABLED => "robot not enabled: EnableRobot first",
+        code::CONTINUE_NOT_ENABLED => "GroupContinue not possible: robot not enabled",
         code::DISABLED_DUE_TO_ERROR => "robot in error: GroupReset first",
         code::SW_LIMIT_LOWER => "target below the lower joint limit",
         code::SW_LIMIT_UPPER => "target above the upper joint limit",
@@ -152,6 +160,13 @@ impl Server {
             t::read_actual_position::TYPE => self.read_actual_position(cmd_id, h, msg, now),
             t::move_axes_absolute::TYPE => self.move_axes_absolute(cmd_id, h, msg, now, fx),
             t::change_speed_override::TYPE => self.change_speed_override(cmd_id, h, msg, now, fx),
+            t::group_stop::TYPE => self.group_motion(cmd_id, h, MotionCommandKind::Stop, now, fx),
+            t::group_interrupt::TYPE => {
+                self.group_motion(cmd_id, h, MotionCommandKind::Interrupt, now, fx)
+            }
+            t::group_continue::TYPE => {
+                self.group_motion(cmd_id, h, MotionCommandKind::Continue, now, fx)
+            }
             _ => self.respond(cmd_id, h, state::ERROR, code::NOT_IMPLEMENTED, now, |_| {}),
         }
     }

@@ -5,7 +5,7 @@ use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind};
 use shared_types::srci::message::{CommandHeader, Percent, code, execution_mode, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
 use shared_types::srci::tables::{
-    change_speed_override as cso, group_reset as gr, move_axes_absolute as maa,
+    change_speed_override as cso, group_reset as gr, group_stop as gs, move_axes_absolute as maa,
 };
 
 use super::LiveKind;
@@ -125,6 +125,32 @@ impl Server {
         self.submit_job(cmd_id, h, c, now, fx);
     }
 
+    /// GroupStop, GroupInterrupt and GroupContinue: executed by the planner, DONE when it has
+    /// stopped the arm (stop, interrupt) or resumed the sequence (continue).
+    pub(crate) fn group_motion(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        kind: MotionCommandKind,
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        if kind == MotionCommandKind::Continue {
+            let refused = if self.error_pending {
+                Some(code::DISABLED_DUE_TO_ERROR)
+            } else if !self.drives_enabled() {
+                Some(code::CONTINUE_NOT_ENABLED)
+            } else {
+                None
+            };
+            if let Some(c) = refused {
+                self.respond(cmd_id, h, state::ERROR, c, now, |_| {});
+                return;
+            }
+        }
+        self.submit_job(cmd_id, h, MotionCommand::new(kind), now, fx);
+    }
+
     /// Hands `command` to the planner as a job whose events answer command `cmd_id`.
     pub(crate) fn submit_job(
         &mut self,
@@ -148,6 +174,8 @@ impl Server {
                         job,
                         progress: 0,
                         sent_ms: now.mono_ms,
+                        aborts_moves: h.command_type == gs::TYPE
+                            && self.live.iter().any(|l| l.command_type == maa::TYPE),
                     },
                 );
             }
@@ -161,21 +189,31 @@ impl Server {
             return;
         };
         let h = self.live_header(i);
+        let (progress, aborts_moves) = match self.live[i].kind {
+            LiveKind::Job {
+                progress,
+                aborts_moves,
+                ..
+            } => (progress, aborts_moves),
+            _ => (0, false),
+        };
         let progress = if u.state == state::DONE {
             10_000
         } else {
-            match self.live[i].kind {
-                LiveKind::Job { progress, .. } => progress,
-                _ => 0,
-            }
+            progress
         };
         if u.command_type == gr::TYPE && u.state == state::DONE {
             self.error_pending = false;
         }
-        let is_move = u.command_type == maa::TYPE;
+        // GroupStop reports whether it aborted moves of the primary sequence (1) or none (0).
+        let aborted_sequence = i8::from(aborts_moves);
+        let command_type = u.command_type;
         self.respond(u.cmd_id, h, u.state, u.code, now, |b| {
-            if is_move {
-                PayloadWriter::new(b).set_u16(maa::response::PROGRESS, progress);
+            let mut w = PayloadWriter::new(b);
+            match command_type {
+                maa::TYPE => w.set_u16(maa::response::PROGRESS, progress),
+                gs::TYPE => w.set_i8(gs::response::ABORTED_SEQUENCE, aborted_sequence),
+                _ => {}
             }
         });
     }
@@ -199,6 +237,7 @@ impl Server {
             job,
             progress,
             sent_ms,
+            aborts_moves,
         } = self.live[i].kind
         else {
             return;
@@ -212,6 +251,7 @@ impl Server {
             job,
             progress: now_progress,
             sent_ms: now.mono_ms,
+            aborts_moves,
         };
         let cmd_id = self.live[i].cmd_id;
         let h = self.live_header(i);

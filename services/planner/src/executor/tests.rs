@@ -364,6 +364,71 @@ fn stop_brakes_on_the_path_within_the_limits_and_aborts_everything() {
 }
 
 #[test]
+fn interrupt_stops_on_the_path_and_continue_finishes_the_same_moves() {
+    let mut rig = Rig::new();
+    let start = rig.feedback.q;
+    let target = target_a();
+    let a = rig.move_to(1, target);
+    let b = rig.move_to(2, home());
+    rig.step(&[a, b]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 40.0);
+    let interrupt = rig.command(MotionCommandKind::Interrupt, 3);
+    rig.step(&[interrupt]);
+    assert_eq!(
+        rig.states_of(1).last(),
+        Some(&(state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT))
+    );
+    assert!(!rig.is_final(3), "done only when the arm stands");
+    rig.run_until(10_000, |r| r.is_final(3));
+    assert_eq!(rig.final_state(3), Some((state::DONE, 0)));
+    assert!(rig.executor.status().sequence_paused);
+    // Interrupted: the arm stands, short of the target, and the queue waits.
+    let stood = rig.feedback.q;
+    for _ in 0..200 {
+        rig.step(&[]);
+    }
+    assert_eq!(rig.feedback.q, stood);
+    assert_ne!(stood, target);
+    assert!(!rig.is_final(1) && !rig.is_final(2));
+
+    let resume = rig.command(MotionCommandKind::Continue, 4);
+    rig.step(&[resume]);
+    assert_eq!(rig.final_state(4), Some((state::DONE, 0)));
+    rig.run_until(20_000, |r| r.is_final(2));
+    assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
+    assert_eq!(rig.final_state(2), Some((state::DONE, 0)));
+    assert_eq!(
+        rig.states_of(1)
+            .iter()
+            .filter(|(s, _)| *s == state::ACTIVE)
+            .count(),
+        2
+    );
+    assert!(!rig.executor.status().sequence_paused);
+    rig.check_limits();
+    rig.check_on_line(0, start, target);
+}
+
+#[test]
+fn stop_of_an_interrupted_sequence_aborts_its_moves() {
+    let mut rig = Rig::new();
+    let a = rig.move_to(1, target_a());
+    rig.step(&[a]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 20.0);
+    let interrupt = rig.command(MotionCommandKind::Interrupt, 2);
+    rig.step(&[interrupt]);
+    rig.run_until(10_000, |r| r.is_final(2));
+    let stop = rig.command(MotionCommandKind::Stop, 3);
+    rig.step(&[stop]);
+    assert_eq!(
+        rig.final_state(1),
+        Some((state::ABORTED, code::ABORTED_BY_GROUP_STOP))
+    );
+    assert_eq!(rig.final_state(3), Some((state::DONE, 0)));
+    assert!(!rig.executor.status().sequence_paused);
+}
+
+#[test]
 fn stop_of_a_standing_arm_is_done_at_once() {
     let mut rig = Rig::new();
     let stop = rig.command(MotionCommandKind::Stop, 9);
