@@ -4,6 +4,7 @@
 
 pub mod acr;
 pub mod commands;
+pub mod cyclic;
 pub mod messages;
 pub mod motion_link;
 pub mod responses;

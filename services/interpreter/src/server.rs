@@ -22,6 +22,7 @@ use shared_types::srci::telegram::{
 
 use crate::acr::{Acr, FragmentOutcome, MESSAGE_CAPACITY};
 use crate::commands::LiveCommand;
+use crate::cyclic::{CyclicLayout, CyclicPosition};
 use crate::messages::{MessageLog, MessageType};
 use crate::motion_link::{JobUpdate, MotionLink, PlannerFault};
 use crate::responses::ResponseQueue;
@@ -86,6 +87,7 @@ impl Default for Effects {
 /// Values fixed at INITIALIZE that every later telegram must repeat.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Session {
+    cyclic: CyclicLayout,
     length_plc_to_rob: u16,
     length_rob_to_plc: u16,
     telegram_number_plc_to_rob: u16,
@@ -201,8 +203,36 @@ impl Server {
                 }
             }
         }
+        if self.telegram_state == ts::INITIALIZED {
+            self.write_cyclic(out);
+        }
         self.write_header(out);
         len
+    }
+
+    /// The optional cyclic position blocks (ReadActualPositionCyclic), fresh every telegram.
+    fn write_cyclic(&self, out: &mut [u8]) {
+        let layout = self.cyclic();
+        if layout.robot_len() == 0 {
+            return;
+        }
+        let (Some(f), Some(s)) = (self.feedback, self.status) else {
+            return;
+        };
+        let p = s.flange_pose;
+        let position = CyclicPosition {
+            pose: [
+                p[0] * 1000.0,
+                p[1] * 1000.0,
+                p[2] * 1000.0,
+                p[3].to_degrees(),
+                p[4].to_degrees(),
+                p[5].to_degrees(),
+            ],
+            joints: f.q.map(f64::to_degrees),
+            ..CyclicPosition::default()
+        };
+        layout.write(out, &position);
     }
 
     /// The fieldbus link changed. A lost or replaced peer ends the session: motion stops and
@@ -438,14 +468,17 @@ impl Server {
         if two_p2r != two_r2p {
             return ts::TELEGRAM_NUMBER_INVALID;
         }
-        // Optional cyclic blocks are not offered yet (RCSupportedFunctions says so).
-        if (h.telegram_number_plc_to_rob | h.telegram_number_rob_to_plc)
-            & !TELEGRAM_NUMBER_TWO_SEQUENCES
-            != 0
-        {
-            return ts::TELEGRAM_NUMBER_UNSUPPORTED;
-        }
+        let cyclic = match CyclicLayout::select(
+            h.telegram_number_plc_to_rob,
+            h.telegram_number_rob_to_plc,
+            self.settings.length_plc_to_rob,
+            self.settings.length_rob_to_plc,
+        ) {
+            Ok(layout) => layout,
+            Err(state) => return state,
+        };
         self.session = Some(Session {
+            cyclic,
             length_plc_to_rob: h.length_plc_to_rob,
             length_rob_to_plc: h.length_rob_to_plc,
             telegram_number_plc_to_rob: h.telegram_number_plc_to_rob,
@@ -475,6 +508,10 @@ impl Server {
         }
     }
 
+    fn cyclic(&self) -> CyclicLayout {
+        self.session.map(|s| s.cyclic).unwrap_or_default()
+    }
+
     fn two_sequences(&self) -> bool {
         self.session
             .is_some_and(|s| s.telegram_number_plc_to_rob & TELEGRAM_NUMBER_TWO_SEQUENCES != 0)
@@ -483,8 +520,9 @@ impl Server {
     /// Processes new sequences exactly once and writes the answering sequences.
     fn exchange_sequences(&mut self, rx: &[u8], now: Now, out: &mut [u8], fx: &mut Effects) {
         let two = self.two_sequences();
-        let (in_areas, n) = sequence_areas(rx.len(), PLC_HEADER_LEN, 0, two);
-        let (out_areas, _) = sequence_areas(out.len(), ROBOT_HEADER_LEN, 0, two);
+        let cyclic = self.cyclic();
+        let (in_areas, n) = sequence_areas(rx.len(), PLC_HEADER_LEN, cyclic.plc_len(), two);
+        let (out_areas, _) = sequence_areas(out.len(), ROBOT_HEADER_LEN, cyclic.robot_len(), two);
         let mut seqs = [0u16; 2];
         for i in 0..n {
             let (start, len) = in_areas[i];
@@ -517,7 +555,9 @@ impl Server {
     }
 
     fn copy_reply_areas(&self, out: &mut [u8]) {
-        let (areas, n) = sequence_areas(out.len(), ROBOT_HEADER_LEN, 0, self.two_sequences());
+        let robot_len = self.cyclic().robot_len();
+        let (areas, n) =
+            sequence_areas(out.len(), ROBOT_HEADER_LEN, robot_len, self.two_sequences());
         for (i, &(start, len)) in areas.iter().enumerate().take(n) {
             out[start..start + len].copy_from_slice(&self.reply_areas[i][..len]);
         }

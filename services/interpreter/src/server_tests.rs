@@ -100,6 +100,8 @@ struct Plc {
     motion: Vec<MotionCommand>,
     last_rx: Vec<u8>,
     last_ack: u16,
+    /// Optional cyclic bytes after each header (PLC→robot, robot→PLC).
+    cyclic: (usize, usize),
     /// Allocations the server made inside `on_telegram` and `poll`.
     server_allocations: u64,
 }
@@ -123,6 +125,7 @@ impl Plc {
             motion: Vec::new(),
             last_rx: Vec::new(),
             last_ack: 0,
+            cyclic: (0, 0),
             server_allocations: 0,
         }
     }
@@ -156,7 +159,7 @@ impl Plc {
         }
         .encode(&mut tx)
         .unwrap();
-        let (areas, _) = sequence_areas(self.len, PLC_HEADER_LEN, 0, false);
+        let (areas, _) = sequence_areas(self.len, PLC_HEADER_LEN, self.cyclic.0, false);
         let (s, l) = areas[0];
         let mut w = SequenceWriter::new(&mut tx[s..s + l], self.seq);
         for &(id, action, ptr, data) in fragments {
@@ -179,7 +182,7 @@ impl Plc {
     }
 
     fn collect(&mut self, rx: &[u8]) {
-        let (areas, _) = sequence_areas(rx.len(), ROBOT_HEADER_LEN, 0, false);
+        let (areas, _) = sequence_areas(rx.len(), ROBOT_HEADER_LEN, self.cyclic.1, false);
         let (s, l) = areas[0];
         let seq = Sequence::decode(&rx[s..s + l]).unwrap();
         // Like the client: a response is taken only with a new ACK of the SEQ being sent.
@@ -412,6 +415,8 @@ fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
     }
     assert!(!supported::announces(&map, t::move_linear_absolute::TYPE));
     assert!(!supported::announces(&map, t::group_jog::TYPE));
+    let (byte, bit) = supported::CYCLIC_POSITION;
+    assert_ne!(map[usize::from(byte)] & (1 << bit), 0, "ReadActualPositionCyclic");
 }
 
 #[test]
@@ -617,4 +622,42 @@ fn steady_state_telegrams_do_not_allocate() {
     assert_eq!(plc.server_allocations, 0, "allocations in the steady state");
     let (_, probe) = alloc_counter::count(|| std::hint::black_box(vec![1u8; 8]));
     assert_eq!(probe, 1, "the counter sees allocations");
+}
+
+#[test]
+fn cyclic_position_blocks_come_with_every_telegram_and_shift_the_sequences() {
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.number_r2p = crate::cyclic::CARTESIAN_POSITION | crate::cyclic::JOINT_POSITION;
+    plc.cyclic = (2, 70);
+    plc.initialize(&mut server);
+    let mut fx = Effects::new();
+    server.on_motion_status(plc.now(), &status(5, &[]), &mut fx);
+    server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+    plc.command(
+        &mut server,
+        7,
+        NEW,
+        &request(t::read_robot_data::TYPE, 2, 4),
+    );
+    assert_eq!(plc.last_response(7).map(|h| h.state), Some(state::DONE));
+    let rx = &plc.last_rx;
+    let f = |at: usize| f32::from_be_bytes([rx[at], rx[at + 1], rx[at + 2], rx[at + 3]]);
+    assert!(
+        (f(10) - 500.0).abs() < 1e-3,
+        "X in mm from the planner's flange pose"
+    );
+    assert!(
+        (f(50 + 4) - 1.57f32.to_degrees()).abs() < 1e-3,
+        "J2 in degrees from the drives"
+    );
+    // Blocks the robot does not offer are refused at INITIALIZE.
+    let mut server = Server::new(settings(256), 9);
+    let mut plc = Plc::new(256);
+    plc.number_r2p = 1 << 3;
+    plc.control = Control::Initialize;
+    assert_eq!(
+        plc.exchange(&mut server, &[]),
+        ts::TELEGRAM_NUMBER_UNSUPPORTED
+    );
 }

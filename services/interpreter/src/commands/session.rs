@@ -33,7 +33,10 @@ impl Server {
         let serial = s.serial_number.clone();
         let robot = s.robot_name.clone();
         let cycle = s.cycle_time_ms;
-        let map = supported::bitmap(&IMPLEMENTED);
+        let mut map = supported::bitmap(&IMPLEMENTED);
+        // ReadActualPositionCyclic has no command type: the cyclic blocks are offered.
+        let (byte, bit) = supported::CYCLIC_POSITION;
+        map[usize::from(byte)] |= 1 << bit;
         self.respond(cmd_id, h, state::DONE, 0, now, |b| {
             let mut w = PayloadWriter::new(b);
             w.set_chars(rrd::response::RC_MANUFACTURER, &manufacturer);
