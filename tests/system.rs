@@ -208,15 +208,6 @@ fn invalid_config_fails_at_start_naming_file_key_and_range() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A header-only command (GroupStop, GroupInterrupt, GroupContinue).
-fn group_command(command_type: u16) -> Request {
-    Request::Raw {
-        command_type,
-        execution_mode: 2,
-        payload: Vec::new(),
-    }
-}
-
 #[test]
 fn group_interrupt_holds_on_the_path_and_group_continue_finishes_the_move() {
     let c = Controller::start("intr");
@@ -225,11 +216,7 @@ fn group_interrupt_holds_on_the_path_and_group_continue_finishes_the_move() {
     reset_and_enable(&mut plc);
     let target = [50.0, 110.0, 60.0, 70.0, -60.0, 60.0];
     let handle = start_slow_move(&mut plc, target);
-    let s = execute(
-        &mut plc,
-        &group_command(t::group_interrupt::TYPE),
-        Duration::from_secs(5),
-    );
+    let s = execute(&mut plc, &Request::GroupInterrupt, Duration::from_secs(5));
     assert_eq!((s.state, s.code), (state::DONE, 0), "GroupInterrupt: {s:?}");
     let moving = plc.task().status(handle).cloned().expect("move status");
     assert_eq!(
@@ -248,11 +235,7 @@ fn group_interrupt_holds_on_the_path_and_group_continue_finishes_the_move() {
     plc.run_for(Duration::from_millis(300)).expect("cycles");
     assert!(max_deviation(held, actual_joints(&mut plc)) < 1e-3, "holds");
 
-    let s = execute(
-        &mut plc,
-        &group_command(t::group_continue::TYPE),
-        Duration::from_secs(5),
-    );
+    let s = execute(&mut plc, &Request::GroupContinue, Duration::from_secs(5));
     assert_eq!((s.state, s.code), (state::DONE, 0), "GroupContinue: {s:?}");
     let done = run_until_state(&mut plc, handle, state::DONE, Duration::from_secs(30));
     assert_eq!((done.state, done.code), (state::DONE, 0), "{done:?}");
@@ -272,11 +255,7 @@ fn group_stop_aborts_the_running_and_the_buffered_moves() {
         .submit(&Request::MoveAxesAbsolute(MoveAxesAbsolute::to(HOME)))
         .expect("submit");
     run_until_state(&mut plc, second, state::BUFFERED, Duration::from_secs(5));
-    let s = execute(
-        &mut plc,
-        &group_command(t::group_stop::TYPE),
-        Duration::from_secs(5),
-    );
+    let s = execute(&mut plc, &Request::GroupStop, Duration::from_secs(5));
     assert_eq!((s.state, s.code), (state::DONE, 0), "GroupStop: {s:?}");
     let aborted_sequence = s.response.get(4).copied();
     assert_eq!(aborted_sequence, Some(1), "AbortedSequence: {s:?}");
@@ -289,4 +268,46 @@ fn group_stop_aborts_the_running_and_the_buffered_moves() {
         );
     }
     assert!(!plc.task().is_moving());
+}
+
+#[test]
+fn cyclic_position_blocks_follow_the_arm_in_every_telegram() {
+    let c = Controller::start("cyclic");
+    let mut plc = c.client_with(EngineOptions {
+        cyclic_position: plc_client::CyclicSelection {
+            cartesian: true,
+            joints: true,
+        },
+        ..EngineOptions::default()
+    });
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    let cyclic = |plc: &plc_client::CycleRunner<plc_client::TcpTransport>| {
+        plc.task()
+            .cyclic_position()
+            .copied()
+            .expect("cyclic blocks")
+    };
+    let at_home = cyclic(&plc);
+    let joints = at_home.joints_deg.expect("joint block");
+    assert!(max_deviation(joints, HOME) < 0.01, "{joints:?}");
+    let read = actual_joints(&mut plc);
+    assert!(max_deviation(read, joints) < 0.01);
+    assert_eq!(
+        at_home.tool_frame,
+        Some((0, 0)),
+        "flange in the world frame"
+    );
+    let target = [10.0, 95.0, 85.0, 95.0, -85.0, 10.0];
+    assert!(move_to(&mut plc, target, 100.0) < 0.01);
+    plc.run_for(std::time::Duration::from_millis(50))
+        .expect("cycles");
+    let there = cyclic(&plc);
+    assert!(max_deviation(there.joints_deg.expect("joints"), target) < 0.01);
+    let moved = there.cartesian.expect("pose");
+    let before = at_home.cartesian.expect("pose");
+    assert!(
+        (0..3).any(|i| (moved[i] - before[i]).abs() > 1.0),
+        "the TCP moved: {before:?} -> {moved:?}"
+    );
 }

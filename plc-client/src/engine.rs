@@ -21,7 +21,7 @@ use shared_types::srci::telegram::{
 
 use crate::acr::{Acr, CommandHandle, CompletedResponse, FRAGMENTS_MAX, ResponseError};
 use crate::request::{Request, command_name};
-use crate::response::{Configuration, Messages, RobotData, RobotMessage};
+use crate::response::{Configuration, CyclicPosition, Messages, RobotData, RobotMessage};
 
 /// Lowest LifeSignTimeOut the robot accepts (the client supervises with at least this).
 const LIFESIGN_TIMEOUT_MIN_MS: u16 = 10;
@@ -51,6 +51,35 @@ pub struct EngineOptions {
     pub log_level: u8,
     /// The PLC cycle time, used in the supervision times.
     pub cycle_time: Duration,
+    /// Optional cyclic position blocks the robot sends every telegram
+    /// (ReadActualPositionCyclic).
+    pub cyclic_position: CyclicSelection,
+}
+
+/// Which cyclic position blocks the robot sends (TelegramNumberRobToPlc bits 1 and 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CyclicSelection {
+    /// CartesianPosition (40 bytes); the PLC then sends ToolNo and FrameNo after its header.
+    pub cartesian: bool,
+    /// JointPosition (30 bytes).
+    pub joints: bool,
+}
+
+impl CyclicSelection {
+    /// The TelegramNumberRobToPlc bits.
+    pub fn telegram_number(self) -> u16 {
+        (u16::from(self.cartesian) << 1) | (u16::from(self.joints) << 2)
+    }
+
+    /// Cyclic bytes after the PLC→robot header (ToolNo, FrameNo).
+    pub fn plc_len(self) -> usize {
+        if self.cartesian { 2 } else { 0 }
+    }
+
+    /// Cyclic bytes after the robot→PLC header.
+    pub fn robot_len(self) -> usize {
+        usize::from(self.cartesian) * 40 + usize::from(self.joints) * 30
+    }
 }
 
 impl Default for EngineOptions {
@@ -65,6 +94,7 @@ impl Default for EngineOptions {
             message_level: severity::WARNING as u8,
             log_level: severity::INFO as u8,
             cycle_time: Duration::from_millis(8),
+            cyclic_position: CyclicSelection::default(),
         }
     }
 }
@@ -280,6 +310,8 @@ pub struct RobotTask {
     lifesign: u8,
     lifesign_frozen: bool,
     robot: Option<RobotHeader>,
+    /// The cyclic position blocks of the last robot telegram in state INITIALIZED.
+    cyclic: Option<CyclicPosition>,
     invalid_frames: u64,
     robot_lifesign_byte: u8,
     robot_lifesign_changed_at: Duration,
@@ -333,6 +365,7 @@ impl RobotTask {
             lifesign: 0,
             lifesign_frozen: false,
             robot: None,
+            cyclic: None,
             invalid_frames: 0,
             robot_lifesign_byte: 0,
             robot_lifesign_changed_at: Duration::ZERO,
@@ -537,6 +570,12 @@ impl RobotTask {
     /// The header of the last valid robot telegram.
     pub fn robot_header(&self) -> Option<&RobotHeader> {
         self.robot.as_ref()
+    }
+
+    /// ReadActualPositionCyclic: the position blocks of the last robot telegram (when
+    /// selected in [`EngineOptions::cyclic_position`]).
+    pub fn cyclic_position(&self) -> Option<&CyclicPosition> {
+        self.cyclic.as_ref()
     }
 
     /// TelegramState of the last valid robot telegram (UNDEFINED before any).
@@ -836,12 +875,19 @@ impl RobotTask {
             axes_group: self.opts.axes_group,
             control: self.control,
             telegram_number_plc_to_rob: 0,
-            telegram_number_rob_to_plc: 0,
+            telegram_number_rob_to_plc: self.opts.cyclic_position.telegram_number(),
             client_date,
             client_time,
         }
         .encode(tx)?;
-        let ([(start, len), _], _) = sequence_areas(tx.len(), PLC_HEADER_LEN, 0, false);
+        let cyclic = self.opts.cyclic_position;
+        if cyclic.cartesian {
+            // The position in the tool and frame in use (-1).
+            tx[PLC_HEADER_LEN] = 0xFF;
+            tx[PLC_HEADER_LEN + 1] = 0xFF;
+        }
+        let ([(start, len), _], _) =
+            sequence_areas(tx.len(), PLC_HEADER_LEN, cyclic.plc_len(), false);
         if self.new_seq {
             let mut w = SequenceWriter::new(&mut self.seq_area[..len], self.current_seq);
             self.acr.fill(&mut w);
@@ -865,7 +911,12 @@ impl RobotTask {
             );
         }
         self.robot = Some(header);
-        let ([(start, len), _], _) = sequence_areas(rx.len(), ROBOT_HEADER_LEN, 0, false);
+        let cyclic = self.opts.cyclic_position;
+        if header.telegram_state == telegram_state::INITIALIZED && cyclic.robot_len() > 0 {
+            self.cyclic = Some(CyclicPosition::decode(rx, cyclic));
+        }
+        let ([(start, len), _], _) =
+            sequence_areas(rx.len(), ROBOT_HEADER_LEN, cyclic.robot_len(), false);
         let seq = match Sequence::decode(&rx[start..start + len]) {
             Ok(seq) => seq,
             Err(e) => {

@@ -26,8 +26,8 @@ use std::time::Duration;
 pub use acr::CommandHandle;
 pub use cycle::CycleRunner;
 pub use engine::{
-    CommandStatus, CycleError, EngineFault, EngineOptions, OptionsError, Phase, RobotTask,
-    SubmitError, telegram_state_name,
+    CommandStatus, CycleError, CyclicSelection, EngineFault, EngineOptions, OptionsError, Phase,
+    RobotTask, SubmitError, telegram_state_name,
 };
 pub use executor::ProgressEvent;
 pub use program::{Program, ProgramError};

@@ -37,6 +37,9 @@ const COMMON_KEYS: &[&str] = &[
 /// `wait`, `expect`, `expect_code`, `delay_ms`, `timeout_ms`).
 pub const CALLS: &[(&str, &[&str])] = &[
     ("GroupReset", &[]),
+    ("GroupStop", &[]),
+    ("GroupInterrupt", &[]),
+    ("GroupContinue", &[]),
     ("EnableRobot", &["enable"]),
     ("ChangeSpeedOverride", &["override"]),
     (
@@ -294,6 +297,9 @@ fn percent(key: &str, v: Option<f64>) -> Result<Option<f64>, String> {
 fn build_request(call: &str, d: &StepDef) -> Result<Request, String> {
     Ok(match call {
         "GroupReset" => Request::GroupReset,
+        "GroupStop" => Request::GroupStop,
+        "GroupInterrupt" => Request::GroupInterrupt,
+        "GroupContinue" => Request::GroupContinue,
         "ReadRobotData" => Request::ReadRobotData,
         "EnableRobot" => Request::EnableRobot {
             enable: d.enable.unwrap_or(true),

@@ -76,6 +76,12 @@ pub enum Request {
     EnableRobot { enable: bool },
     /// GroupReset (1001): acknowledge pending errors.
     GroupReset,
+    /// GroupStop (2003): stop and discard every move.
+    GroupStop,
+    /// GroupInterrupt (2002): stop on the path and hold the primary sequence.
+    GroupInterrupt,
+    /// GroupContinue (2001): resume the interrupted primary sequence.
+    GroupContinue,
     /// ChangeSpeedOverride (2000), override in percent.
     ChangeSpeedOverride { percent: f64 },
     /// MoveAxesAbsolute (2101).
@@ -99,6 +105,9 @@ impl Request {
             Self::ReadMessages { .. } => tables::read_messages::TYPE,
             Self::EnableRobot { .. } => tables::enable_robot::TYPE,
             Self::GroupReset => tables::group_reset::TYPE,
+            Self::GroupStop => tables::group_stop::TYPE,
+            Self::GroupInterrupt => tables::group_interrupt::TYPE,
+            Self::GroupContinue => tables::group_continue::TYPE,
             Self::ChangeSpeedOverride { .. } => tables::change_speed_override::TYPE,
             Self::MoveAxesAbsolute(_) => tables::move_axes_absolute::TYPE,
             Self::ReadActualPosition { .. } => tables::read_actual_position::TYPE,
@@ -148,7 +157,11 @@ impl Request {
         .encode(out);
         let mut w = PayloadWriter::new(out);
         match self {
-            Self::ReadRobotData | Self::GroupReset => {}
+            Self::ReadRobotData
+            | Self::GroupReset
+            | Self::GroupStop
+            | Self::GroupInterrupt
+            | Self::GroupContinue => {}
             Self::ExchangeConfiguration {
                 log_level,
                 lifesign_timeout_ms,
@@ -196,6 +209,9 @@ impl Request {
             Self::ReadMessages { .. } => tables::read_messages::request::LEN,
             Self::EnableRobot { .. } => tables::enable_robot::request::LEN,
             Self::GroupReset => tables::group_reset::request::LEN,
+            Self::GroupStop => tables::group_stop::request::LEN,
+            Self::GroupInterrupt => tables::group_interrupt::request::LEN,
+            Self::GroupContinue => tables::group_continue::request::LEN,
             Self::ChangeSpeedOverride { .. } => tables::change_speed_override::request::LEN,
             Self::MoveAxesAbsolute(_) => tables::move_axes_absolute::request::LEN,
             Self::ReadActualPosition { .. } => tables::read_actual_position::request::LEN,

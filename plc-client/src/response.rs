@@ -119,6 +119,40 @@ impl ActualPosition {
     }
 }
 
+/// The optional cyclic position blocks of a robot telegram (ReadActualPositionCyclic).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CyclicPosition {
+    /// X, Y, Z in mm and RX, RY, RZ in degrees (CartesianPosition block).
+    pub cartesian: Option<[f64; 6]>,
+    /// Tool and frame the Cartesian position is given in.
+    pub tool_frame: Option<(u8, u8)>,
+    /// J1..J6 in degrees (JointPosition block).
+    pub joints_deg: Option<[f64; 6]>,
+}
+
+impl CyclicPosition {
+    /// Reads the blocks `selection` chose from a whole robot telegram.
+    pub fn decode(telegram: &[u8], selection: crate::engine::CyclicSelection) -> Self {
+        let real = |at: usize| {
+            telegram.get(at..at + 4).map_or(0.0, |b| {
+                f64::from(f32::from_be_bytes([b[0], b[1], b[2], b[3]]))
+            })
+        };
+        let six = |at: usize| core::array::from_fn(|i| real(at + 4 * i));
+        let mut at = shared_types::srci::telegram::ROBOT_HEADER_LEN;
+        let mut p = Self::default();
+        if selection.cartesian {
+            p.cartesian = Some(six(at));
+            p.tool_frame = telegram.get(at + 34..at + 36).map(|b| (b[0], b[1]));
+            at += 40;
+        }
+        if selection.joints {
+            p.joints_deg = Some(six(at));
+        }
+        p
+    }
+}
+
 /// MoveAxesAbsolute (2101) response: the progress of the move.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MoveProgress {

@@ -416,7 +416,11 @@ fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
     assert!(!supported::announces(&map, t::move_linear_absolute::TYPE));
     assert!(!supported::announces(&map, t::group_jog::TYPE));
     let (byte, bit) = supported::CYCLIC_POSITION;
-    assert_ne!(map[usize::from(byte)] & (1 << bit), 0, "ReadActualPositionCyclic");
+    assert_ne!(
+        map[usize::from(byte)] & (1 << bit),
+        0,
+        "ReadActualPositionCyclic"
+    );
 }
 
 #[test]
