@@ -18,6 +18,8 @@ use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Parser, Subcommand};
 use orchestrator::Service;
 use shared_types::config::Config;
+use shared_types::realtime::{self, SchedulingPlan};
+use shared_types::supervision;
 use tracing_subscriber::EnvFilter;
 
 /// Exit code for a configuration that cannot be loaded.
@@ -138,6 +140,17 @@ fn with_config(
 }
 
 fn run_service(service: Service, config: &Config) -> anyhow::Result<()> {
+    // Started before the real-time settings, as threads inherit them: the watchdog thread
+    // must keep normal scheduling and may run on any CPU.
+    let _watchdog = supervision::Watchdog::start()?;
+    let rt = &config.main.realtime;
+    let scheduling = match service {
+        Service::Fieldbus => &rt.fieldbus,
+        Service::Interpreter => &rt.interpreter,
+        Service::Planner => &rt.planner,
+        Service::Servo => &rt.servo,
+    };
+    realtime::apply(service.name(), &SchedulingPlan::from_settings(scheduling))?;
     match service {
         Service::Fieldbus => fieldbus::run(config, &SHUTDOWN)?,
         Service::Interpreter => interpreter::run(config, &SHUTDOWN)?,

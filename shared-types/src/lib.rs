@@ -4,6 +4,8 @@
 pub mod bus;
 pub mod config;
 pub mod ipc;
+pub mod realtime;
 pub mod srci;
+pub mod supervision;
 pub mod throttle;
 pub mod time;

@@ -105,6 +105,7 @@ impl Gateway {
             "fieldbus TCP gateway listening"
         );
         while !shutdown.load(Ordering::Relaxed) {
+            shared_types::supervision::beat();
             match self.link.poll(POLL_INTERVAL)? {
                 Activity::Idle => {}
                 Activity::Connected {
@@ -192,7 +193,9 @@ impl Gateway {
 /// connected earlier would get no answers and drop the connection.
 pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), FieldbusError> {
     if wait_for_interpreter(config, shutdown)? {
-        Gateway::bind(config)?.serve(shutdown)?;
+        let mut gateway = Gateway::bind(config)?;
+        shared_types::supervision::ready();
+        gateway.serve(shutdown)?;
     }
     Ok(())
 }

@@ -66,6 +66,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
     let status = bus.subscriber::<MotionStatus>(topics::MOTION_STATUS)?;
     let feedback = bus.subscriber::<ServoFeedback>(topics::SERVO_FEEDBACK)?;
     let control = bus.publisher::<ServoControl>(topics::SERVO_CONTROL)?;
+    shared_types::supervision::ready();
 
     let issuer = now().unix_ms ^ (u64::from(std::process::id()) << 40);
     let mut server = Server::new(settings(config), issuer);
@@ -86,6 +87,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
     let mut control_published_ms = 0;
 
     while !shutdown.load(Ordering::Relaxed) {
+        shared_types::supervision::beat();
         bus::wait_for_wakeup(&telegram_wakeup, POLL_INTERVAL)?;
         let t = now();
         if let Some(s) = bus::receive_latest(&status)? {

@@ -38,6 +38,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), PlannerError> {
     let command_subscriber = bus.subscriber::<MotionCommand>(topics::MOTION_COMMAND)?;
     let setpoint_publisher = bus.publisher::<ServoSetpoint>(topics::SERVO_SETPOINT)?;
     let status_publisher = bus.publisher::<MotionStatus>(topics::MOTION_STATUS)?;
+    shared_types::supervision::ready();
 
     let instance = process_instance();
     let mut executor = Executor::new(config, instance);
@@ -51,6 +52,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), PlannerError> {
     );
 
     while !shutdown.load(Ordering::Relaxed) {
+        shared_types::supervision::beat();
         if let Err(e) = wait_for_wakeup(&feedback_wakeup, WAKEUP_TIMEOUT) {
             // The signal that requests the shutdown may interrupt the wait.
             if shutdown.load(Ordering::Relaxed) {

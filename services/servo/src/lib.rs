@@ -36,6 +36,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
     let setpoint_sub = bus.subscriber::<ServoSetpoint>(topics::SERVO_SETPOINT)?;
     let feedback_pub = bus.publisher::<ServoFeedback>(topics::SERVO_FEEDBACK)?;
     let feedback_wake = bus.notifier(topics::SERVO_FEEDBACK)?;
+    shared_types::supervision::ready();
 
     let instance = process_instance();
     let period_ns = config.main.servo.period_us.saturating_mul(1000);
@@ -55,6 +56,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
     let mut overrun_log = WarnThrottle::new(OVERRUN_LOG_INTERVAL_NS);
     while !shutdown.load(Ordering::Relaxed) {
         let timing = clock.wait()?;
+        shared_types::supervision::beat();
         // Overruns are counted in every feedback sample; the log gets one line per interval
         // at most, so a loaded machine does not flood it.
         if timing.skipped > 0 && overrun_log.admit(timing.deadline_ns).is_some() {
