@@ -20,7 +20,9 @@ pub enum FragmentOutcome {
         len: usize,
         new_command: bool,
     },
-    /// A fragment without Reset for a CmdID the register does not know.
+    /// A fragment without Reset for a CmdID the register does not know, or a fragment
+    /// without Reset or Clear for a message that was already complete (it would run the
+    /// command a second time).
     UnknownCommand,
     /// No free entry for a new command (more live commands than LengthACR).
     RegisterFull,
@@ -35,6 +37,8 @@ struct Entry {
     live: bool,
     /// The current message began with Reset (a new command, not an update).
     new_command: bool,
+    /// The current message was complete and handed over.
+    handed_over: bool,
     /// Highest byte written + 1.
     len: usize,
     buffer: [u8; MESSAGE_CAPACITY],
@@ -55,6 +59,7 @@ impl Acr {
                     cmd_id: 0,
                     live: false,
                     new_command: false,
+                    handed_over: false,
                     len: 0,
                     buffer: [0; MESSAGE_CAPACITY],
                 };
@@ -90,21 +95,27 @@ impl Acr {
             (None, false) => return FragmentOutcome::UnknownCommand,
         };
         let entry = &mut self.entries[slot];
+        let starts_message = header.action.reset() || header.action.clear();
+        if entry.live && entry.handed_over && !starts_message {
+            return FragmentOutcome::UnknownCommand;
+        }
         let start = usize::from(header.pointer);
         let end = start + data.len();
         if end > MESSAGE_CAPACITY {
             return FragmentOutcome::OutOfBounds;
         }
-        if header.action.reset() || header.action.clear() {
+        if starts_message {
             entry.buffer.fill(0);
             entry.len = 0;
             entry.new_command = header.action.reset();
+            entry.handed_over = false;
         }
         entry.cmd_id = header.cmd_id;
         entry.live = true;
         entry.buffer[start..end].copy_from_slice(data);
         entry.len = entry.len.max(end);
         if header.action.complete() {
+            entry.handed_over = true;
             FragmentOutcome::Complete {
                 slot,
                 len: entry.len,
@@ -188,6 +199,27 @@ mod tests {
         };
         assert!(!new_command);
         assert_eq!(acr.message(slot), &[7, 7]);
+    }
+
+    #[test]
+    fn a_complete_message_is_not_handed_over_again_without_reset_or_clear() {
+        let mut acr = Acr::new(1);
+        assert!(matches!(
+            acr.on_fragment(&frag(7, 0x03, 0, 2), &[1, 2]),
+            FragmentOutcome::Complete { .. }
+        ));
+        // Found by fuzzing: a bare Complete fragment re-ran the running command.
+        assert_eq!(
+            acr.on_fragment(&frag(7, 0x01, 0, 0), &[]),
+            FragmentOutcome::UnknownCommand
+        );
+        assert!(matches!(
+            acr.on_fragment(&frag(7, 0x05, 0, 1), &[3]),
+            FragmentOutcome::Complete {
+                new_command: false,
+                ..
+            }
+        ));
     }
 
     #[test]

@@ -596,7 +596,7 @@ impl Server {
                     MessageType::Interface,
                     severity::WARNING,
                     code::TRANSITION_NOT_POSSIBLE,
-                    "fragment for a CmdID without a command (no Reset on its first fragment): ignored",
+                    "fragment ignored: its CmdID has no message being received (a new command starts with Reset, an update with Clear)",
                 ),
                 FragmentOutcome::RegisterFull | FragmentOutcome::OutOfBounds => {
                     self.respond_error_unregistered(header.cmd_id, code::INTERNAL_ERROR, now)

@@ -3,7 +3,8 @@
 //! Pure cores: [`profile`] (the double-S path profile), [`joint_move`] (synchronized PTP
 //! moves), [`brake`] (stops on the path), [`motion`] (one tick of commanded motion),
 //! [`queue`] (the primary sequence), [`events`] (paced job events), [`executor`] (the
-//! per-tick state machine) and [`kinematics`] (forward kinematics). [`service`] is the
+//! per-tick state machine) and [`kinematics`] (forward kinematics, Jacobian, analytic
+//! inverse kinematics, configuration bits and turn numbers). [`service`] is the
 //! process loop around them.
 
 pub mod brake;

@@ -1,5 +1,71 @@
-//! Forward kinematics of the standard Denavit-Hartenberg chain of the robot configuration,
-//! and the fixed-axis X-Y-Z (roll-pitch-yaw) angles the flange pose is reported in.
+//! Kinematics of the arm: forward kinematics and the geometric Jacobian of the standard
+//! Denavit-Hartenberg chain of the robot configuration, and, for the UR-type 6R family of the
+//! JAKA Zu series and the UR5e, singularities, the analytic inverse kinematics, the SRCI
+//! configuration bits, turn numbers and the choice of one solution for a Cartesian target.
+//!
+//! # The UR-type family
+//!
+//! `T_i = Rz(θ_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)` with `θ_i = q_i + offset_i`, `α = (90°, 0, 0, 90°,
+//! −90°, 0)`, `a1 = a4 = a5 = a6 = 0`, `d2 = d3 = 0` (see [`ArmGeometry`]): J1 is vertical, J2,
+//! J3 and J4 are parallel (normal `n = (sin θ1, −cos θ1, 0)` of the arm plane), J5 and J6 do not
+//! meet in a spherical wrist. JAKA's arm points along +x at zero (`a2, a3 > 0`, `d4 < 0`), the
+//! UR5e's along −x (`a2, a3 < 0`, `d4 > 0`); every definition below holds for both signs.
+//!
+//! - **Reach direction** `e = sign(a2)·(cos θ1, sin θ1, 0)`: where the stretched arm points for
+//!   the current J1 angle.
+//! - **Wrist point** `p5`: the origin of frame 5, where the J5 and J6 axes meet, i.e. the
+//!   flange origin minus `d6` along the flange z axis. Its component along `n` is always `d4`,
+//!   so the J1 angle follows from `p5` alone.
+//!
+//! # Configuration bits (SRCI Position config byte)
+//!
+//! Each bit is the sign of one of the [`SingularityMeasures`]; each measure is zero exactly on
+//! one of the three singular sets, where the two inverse kinematics branches of that bit meet.
+//!
+//! | bit | 1 | 0 | 1 when |
+//! | --- | --- | --- | --- |
+//! | 0 Shoulder | BACK | FRONT | the wrist point lies behind the J1 axis: `p5·e < 0` (the arm reaches over its head) |
+//! | 1 Elbow | DOWN | UP | the elbow (J3) lies below the line from J2 to J4, seen in the arm plane with `e` pointing forward: `a3·sin θ3 > 0` |
+//! | 2 Wrist | FLIP | NON_FLIP | `sin θ5 < 0` (JAKA's "w = sin(axis5)" negative) |
+//!
+//! The elbow bit is relative to the arm, not to the world: the mirror image of an elbow-up pose
+//! through the J1 axis (shoulder BACK) has the elbow bit DOWN. Both homes of the shipped
+//! configurations (JAKA `[0, 90, 90, 90, −90, 0]°`, UR5e `[0, −90, 90, −90, −90, 0]°`) have the
+//! upper arm vertical and the forearm horizontal; the UR5e's forearm points forward (FRONT, UP,
+//! FLIP), JAKA's backward (BACK, DOWN, FLIP). On a singular set the sign is 0 and the bit is 0.
+//!
+//! # Singularities
+//!
+//! - **Shoulder:** the wrist point on the line of the J1 axis projected into the arm plane
+//!   (`p5·e = 0`, the two J1 roots meet; with `d4 = 0` this is the J1 axis itself).
+//! - **Elbow:** the arm stretched or folded, `θ3 = 0` or `π`.
+//! - **Wrist:** `θ5 = 0` or `π`: J6 parallel to J2, J3 and J4, four parallel axes for three
+//!   planar freedoms, so θ6 is free and θ2..θ4 follow from it.
+//!
+//! The Jacobian determinant factors into them: `det J = ±a2·a3·(p5·e)·sin θ3·sin θ5`.
+//!
+//! # Turns
+//!
+//! Every joint angle is `base + 2π·turn` with `base` in (−π, π]; inverse kinematics yields base
+//! angles, [`turns`] the SRCI TurnNumber encoding, [`selection`] the turn the move goes to.
+
+mod arm_config;
+mod geometry;
+mod inverse;
+mod jacobian;
+pub mod selection;
+mod singularity;
+#[cfg(test)]
+mod test_robots;
+pub mod turns;
+
+pub use arm_config::{ArmConfig, ArmConfigElement, Elbow, Shoulder, Wrist};
+pub use geometry::{ArmGeometry, GeometryError};
+pub use inverse::{IkError, IkSolutions, REACH_TOLERANCE_M, WRIST_FREE_SIN};
+pub use singularity::{
+    ELBOW_SINGULARITY_SIN, SHOULDER_SINGULARITY_M, Singularities, SingularityMeasures,
+    WRIST_SINGULARITY_SIN,
+};
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use shared_types::config::KinematicsConfig;
@@ -36,13 +102,7 @@ impl Kinematics {
 
     /// The flange frame in the base frame for the joint positions `q` (rad).
     pub fn flange(&self, q: &[f64; AXES]) -> Isometry3<f64> {
-        self.links.iter().zip(q.iter().zip(&self.offsets)).fold(
-            Isometry3::identity(),
-            |base, (link, (qi, offset))| {
-                let joint = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), qi + offset);
-                base * Isometry3::from_parts(Translation3::identity(), joint) * link
-            },
-        )
+        self.frames(q)[AXES]
     }
 
     /// The flange pose `[x, y, z, Rx, Ry, Rz]` (m, rad) with `R = Rz(Rz)·Ry(Ry)·Rx(Rx)`.
@@ -51,6 +111,23 @@ impl Kinematics {
         let t = flange.translation.vector;
         let [rx, ry, rz] = rpy_from_matrix(flange.rotation.to_rotation_matrix().matrix());
         [t.x, t.y, t.z, rx, ry, rz]
+    }
+
+    /// The DH frames 0 (base) to 6 (flange) in the base frame; joint `i + 1` turns about the
+    /// z axis of frame `i`.
+    fn frames(&self, q: &[f64; AXES]) -> [Isometry3<f64>; AXES + 1] {
+        let mut frames = [Isometry3::identity(); AXES + 1];
+        for (i, (link, (qi, offset))) in self
+            .links
+            .iter()
+            .zip(q.iter().zip(&self.offsets))
+            .enumerate()
+        {
+            let joint = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), qi + offset);
+            frames[i + 1] =
+                frames[i] * Isometry3::from_parts(Translation3::identity(), joint) * link;
+        }
+        frames
     }
 }
 
