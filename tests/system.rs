@@ -36,6 +36,16 @@ fn handshake_enable_and_moves_reach_their_targets() {
         max_deviation(start, HOME) < 0.01,
         "starts at home: {start:?}"
     );
+    let position = execute(
+        &mut plc,
+        &Request::ReadActualPosition { tool: 0, frame: 0 },
+        Duration::from_secs(5),
+    );
+    assert_eq!(
+        position.response[34] & 0b111,
+        0b111,
+        "home is shoulder BACK, elbow DOWN, wrist FLIP"
+    );
     for target in [
         [20.0, 100.0, 70.0, 80.0, -80.0, 30.0],
         [-15.0, 80.0, 100.0, 95.0, -100.0, -20.0],

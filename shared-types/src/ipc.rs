@@ -219,6 +219,10 @@ pub struct MotionStatus {
     pub joint_velocities: [f64; AXES],
     /// Flange pose in the world frame: x, y, z in m, then Rx, Ry, Rz in rad (R = Rz·Ry·Rx).
     pub flange_pose: [f64; 6],
+    /// SRCI configuration bits of `joints_rad` (bit 0 Shoulder BACK, 1 Elbow DOWN, 2 Wrist
+    /// FLIP) and its TurnNumber bytes (sign-magnitude nibbles, [J2|J1, J4|J3, J6|J5, E1]).
+    pub arm_config: u8,
+    pub turn_numbers: [u8; 4],
     /// Current override in [0, 1] (target of the ramp).
     pub override_fraction: f64,
     pub moving: bool,
@@ -249,6 +253,8 @@ impl MotionStatus {
             joints_rad: [0.0; AXES],
             joint_velocities: [0.0; AXES],
             flange_pose: [0.0; 6],
+            arm_config: 0,
+            turn_numbers: [0; 4],
             override_fraction,
             moving: false,
             accelerating: false,

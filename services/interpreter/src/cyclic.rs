@@ -45,6 +45,9 @@ pub struct CyclicPosition {
     /// Tool and frame the robot uses now.
     pub current_tool: u8,
     pub current_frame: u8,
+    /// Configuration bits (first byte of the Config WORD) and TurnNumber bytes.
+    pub arm_config: u8,
+    pub turn_numbers: [u8; 4],
 }
 
 impl CyclicLayout {
@@ -99,7 +102,10 @@ impl CyclicLayout {
             for v in p.pose {
                 put(out, &mut at, &(v as f32).to_be_bytes());
             }
-            // Config WORD, turn numbers and E1 stay 0: no configuration or external axis yet.
+            // Config WORD (bits in its first byte, as in the move commands), turn numbers;
+            // E1 stays 0: no external axis.
+            put(out, &mut at, &[p.arm_config, 0]);
+            put(out, &mut at, &p.turn_numbers);
             at = start + 34;
             put(
                 out,

@@ -230,6 +230,8 @@ impl Server {
                 p[5].to_degrees(),
             ],
             joints: f.q.map(f64::to_degrees),
+            arm_config: s.arm_config,
+            turn_numbers: s.turn_numbers,
             ..CyclicPosition::default()
         };
         layout.write(out, &position);

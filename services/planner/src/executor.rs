@@ -15,7 +15,8 @@ use shared_types::srci::message::{code, state};
 
 use crate::events::EventLog;
 use crate::joint_move::{self, JointMove};
-use crate::kinematics::Kinematics;
+use crate::kinematics::turns::TurnNumbers;
+use crate::kinematics::{ArmGeometry, Kinematics};
 use crate::motion::{Dynamics, Motion, Phase};
 use crate::queue::MoveQueue;
 
@@ -32,6 +33,8 @@ const EVENT_SLACK: usize = 256;
 pub struct Executor {
     dynamics: Dynamics,
     kinematics: Kinematics,
+    /// The UR-type geometry for configuration bits (`None` if the robot does not fit it).
+    geometry: Option<ArmGeometry>,
     /// Configured interpolation period, s.
     period_s: f64,
     motion: Motion,
@@ -69,6 +72,7 @@ impl Executor {
                 override_reserve: config.main.planner.override_reserve,
             },
             kinematics: Kinematics::new(&config.robot.kinematics),
+            geometry: ArmGeometry::new(&config.robot.kinematics).ok(),
             period_s: config.main.servo.period_us as f64 * 1e-6,
             motion: Motion::at_rest([0.0; AXES], override_fraction),
             queue: MoveQueue::with_capacity(queue_length),
@@ -420,6 +424,14 @@ impl Executor {
         s.joints_rad = point.q;
         s.joint_velocities = point.qd;
         s.flange_pose = self.kinematics.flange_pose(&point.q);
+        s.arm_config = self.geometry.map_or(0, |g| g.arm_config(&point.q).bits());
+        // Joints within ±720° always fit the turn nibbles; keep the last value otherwise.
+        if let Some(wire) = TurnNumbers::of_joints(&point.q)
+            .ok()
+            .and_then(|t| t.to_wire().ok())
+        {
+            s.turn_numbers = wire;
+        }
         s.override_fraction = self.override_target;
         s.sequence_paused = self.motion.sequence_paused;
         // The sign of q̇·q̈ tells speeding up from slowing down along the straight joint path.

@@ -212,6 +212,14 @@ impl Server {
                 };
                 w.set_f32(f, v as f32);
             }
+            // The configuration bits share byte 34 and follow the Shoulder/Elbow/Wrist fields.
+            w.set_bit(rap::response::SHOULDER, status.arm_config & 1 != 0);
+            w.set_bit(rap::response::ELBOW, status.arm_config & 2 != 0);
+            w.set_bit(rap::response::WRIST, status.arm_config & 4 != 0);
+            w.set_bytes(
+                rap::response::ACTUAL_CARTESIAN_POSITION_TURN_NUMBER,
+                &status.turn_numbers,
+            );
             let joints = rap::response::ACTUAL_JOINT_POSITION_J1_J6;
             for (f, q) in joints.into_iter().zip(feedback.q) {
                 w.set_f32(f, q.to_degrees() as f32);

@@ -429,6 +429,22 @@ fn stop_of_an_interrupted_sequence_aborts_its_moves() {
 }
 
 #[test]
+fn the_status_carries_configuration_bits_and_turn_numbers() {
+    let mut rig = Rig::new();
+    rig.step(&[]);
+    // The JAKA Zu 7 home [0, 90, 90, 90, -90, 0]: shoulder BACK, elbow DOWN, wrist FLIP.
+    assert_eq!(rig.executor.status().arm_config, 0b111);
+    assert_eq!(rig.executor.status().turn_numbers, [0; 4]);
+    let mut target = home();
+    target[0] = 200f64.to_radians();
+    let c = rig.move_to(1, target);
+    rig.step(&[c]);
+    rig.run_until(20_000, |r| r.is_final(1));
+    // J1 at 200 deg is turn +1 of -160 deg: low nibble of byte 0.
+    assert_eq!(rig.executor.status().turn_numbers[0] & 0x0F, 1);
+}
+
+#[test]
 fn stop_of_a_standing_arm_is_done_at_once() {
     let mut rig = Rig::new();
     let stop = rig.command(MotionCommandKind::Stop, 9);
