@@ -156,12 +156,12 @@ mod tests {
         let p = CyclicPosition {
             pose: [500.0, -20.0, 300.0, 180.0, 0.0, 90.0],
             joints: [0.0, 90.0, 90.0, 90.0, -90.0, 45.0],
-            tool: 0,
-            frame: 0,
-            current_tool: 0,
-            current_frame: 0,
+            arm_config: 0b101,
+            turn_numbers: [0x2B, 0, 0, 0],
+            ..CyclicPosition::default()
         };
         l.write(&mut out, &p);
+        assert_eq!(&out[34..40], &[0b101, 0, 0x2B, 0, 0, 0], "Config WORD and turns");
         let f = |at: usize| f32::from_be_bytes([out[at], out[at + 1], out[at + 2], out[at + 3]]);
         assert_eq!(f(10), 500.0);
         assert_eq!(f(10 + 20), 90.0);
