@@ -28,7 +28,7 @@ fn handshake_enable_and_moves_reach_their_targets() {
         !data.supports(t::move_linear_absolute::TYPE),
         "only what is implemented"
     );
-    assert!(!data.supports(t::group_jog::TYPE));
+    assert!(!data.supports(t::return_to_primary::TYPE));
     reset_and_enable(&mut plc);
 
     let start = actual_joints(&mut plc);
@@ -324,4 +324,71 @@ fn cyclic_position_blocks_follow_the_arm_in_every_telegram() {
         (0..3).any(|i| (moved[i] - before[i]).abs() > 1.0),
         "the TCP moved: {before:?} -> {moved:?}"
     );
+}
+
+/// GroupJog parameters after the 4-byte header: joint mode, override, direction bits.
+fn jog_payload(enable: bool, direction: Option<shared_types::srci::payload::Field>) -> Vec<u8> {
+    use shared_types::srci::payload::PayloadWriter;
+    use shared_types::srci::tables::group_jog::request as f;
+    let mut b = vec![0u8; f::LEN];
+    let mut w = PayloadWriter::new(&mut b);
+    w.set_bit(f::ENABLE, enable);
+    w.set_u8(f::MODE, 2);
+    w.set_u16(f::OVERRIDE, 2000);
+    if let Some(d) = direction {
+        w.set_bit(d, true);
+    }
+    b.split_off(4)
+}
+
+#[test]
+fn group_jog_moves_a_joint_while_its_bit_is_set() {
+    use shared_types::srci::tables::group_jog as gj;
+    let c = Controller::start("jog");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    let jog = |enable, direction| Request::Raw {
+        command_type: gj::TYPE,
+        execution_mode: 7,
+        payload: jog_payload(enable, direction),
+    };
+    let before = actual_joints(&mut plc);
+    let handle = plc
+        .task_mut()
+        .submit(&jog(true, Some(gj::request::X_J1_POS)))
+        .expect("submit GroupJog");
+    let active = run_until_state(&mut plc, handle, state::ACTIVE, Duration::from_secs(5));
+    assert_eq!(active.state, state::ACTIVE, "{active:?}");
+    assert!(
+        cycles_until(&mut plc, |t| t.is_moving(), Duration::from_secs(2)),
+        "jogging J1"
+    );
+    plc.run_for(Duration::from_millis(300)).expect("jogging");
+    plc.task_mut()
+        .update(handle, &jog(true, None))
+        .expect("release the key");
+    assert!(
+        cycles_until(&mut plc, |t| !t.is_moving(), Duration::from_secs(2)),
+        "stops when the bit is released"
+    );
+    let after = actual_joints(&mut plc);
+    assert!(
+        after[0] > before[0] + 1.0,
+        "J1 moved positive: {before:?} -> {after:?}"
+    );
+    for i in 1..6 {
+        assert!((after[i] - before[i]).abs() < 1e-3, "only J1 moved");
+    }
+    let s = plc.task().status(handle).cloned().expect("status");
+    assert_eq!(
+        s.response.get(4).map(|b| b & 0b101),
+        Some(0b001),
+        "Enabled, not moving"
+    );
+    plc.task_mut()
+        .update(handle, &jog(false, None))
+        .expect("disable");
+    let done = run_until_state(&mut plc, handle, state::DONE, Duration::from_secs(5));
+    assert_eq!((done.state, done.code), (state::DONE, 0), "{done:?}");
 }

@@ -414,7 +414,7 @@ fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
         assert!(supported::announces(&map, ty), "type {ty} announced");
     }
     assert!(!supported::announces(&map, t::move_linear_absolute::TYPE));
-    assert!(!supported::announces(&map, t::group_jog::TYPE));
+    assert!(!supported::announces(&map, t::return_to_primary::TYPE));
     let (byte, bit) = supported::CYCLIC_POSITION;
     assert_ne!(
         map[usize::from(byte)] & (1 << bit),
@@ -548,7 +548,12 @@ fn read_messages_delivers_and_takes_acknowledgements() {
     plc.command(&mut server, 1, NEW, &rm);
     assert_eq!(plc.last_response(1).unwrap().state, state::ACTIVE);
     // An unsupported command raises an error message.
-    plc.command(&mut server, 2, NEW, &request(t::group_jog::TYPE, 7, 23));
+    plc.command(
+        &mut server,
+        2,
+        NEW,
+        &request(t::return_to_primary::TYPE, 0, 22),
+    );
     plc.idle(&mut server);
     let (_, body) = plc.responses.iter().rev().find(|(id, _)| *id == 1).unwrap();
     let r = PayloadReader::new(body);
@@ -606,7 +611,12 @@ fn steady_state_telegrams_do_not_allocate() {
             NEW,
             &request(t::read_actual_position::TYPE, 2, 12),
         );
-        plc.command(&mut server, 4, NEW, &request(t::group_jog::TYPE, 7, 23));
+        plc.command(
+            &mut server,
+            4,
+            NEW,
+            &request(t::return_to_primary::TYPE, 0, 22),
+        );
         let job = plc.motion.last().map_or(0, |c| c.job);
         events += 1;
         let s = status(5, &[(events, job, state::DONE, 0)]);

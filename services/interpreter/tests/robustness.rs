@@ -35,7 +35,7 @@ use shared_types::ipc::{
 };
 use shared_types::srci::message::{CommandHeader, ResponseHeader, execution_mode, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
-use shared_types::srci::tables::{PAYLOAD_LENGTHS, move_axes_absolute as maa};
+use shared_types::srci::tables::{PAYLOAD_LENGTHS, group_jog as gj, move_axes_absolute as maa};
 use shared_types::srci::telegram::{
     Control, FRAGMENT_HEADER_LEN, FragmentAction, FragmentHeader, MAX_TELEGRAM_LEN,
     MIN_TELEGRAM_LEN, PLC_HEADER_LEN, PlcHeader, ROBOT_HEADER_LEN, RobotHeader,
@@ -111,15 +111,43 @@ fn defined_message_state(s: u8) -> bool {
 }
 
 /// A move the stream asked for: a complete MoveAxesAbsolute message that passes the checks
-/// any move must pass (ExecutionMode 0 or 1, finite joints, rates 0..=100 % or default).
+/// any move must pass (ExecutionMode 0 or 1, finite joints, rates 0..=100 % or default), or
+/// a complete joint-mode GroupJog that enables a direction (its target depends on where the
+/// arm is, so `joints_rad` is `None`).
 #[derive(Debug, Clone, Copy)]
 struct MoveRequest {
-    joints_rad: [f64; AXES],
+    joints_rad: Option<[f64; AXES]>,
     aborting: bool,
 }
 
 impl MoveRequest {
     fn from_message(msg: &[u8]) -> Option<Self> {
+        Self::from_move_axes(msg).or_else(|| Self::from_jog(msg))
+    }
+
+    fn from_jog(msg: &[u8]) -> Option<Self> {
+        let h = CommandHeader::decode(msg);
+        let r = PayloadReader::new(msg);
+        let directions = [20, 21]
+            .iter()
+            .any(|&i| msg.get(i).is_some_and(|b| *b != 0))
+            || msg.get(22).is_some_and(|b| *b != 0);
+        let asks = h.command_type == gj::TYPE
+            && matches!(
+                h.execution_mode,
+                execution_mode::SEQUENCE_SECONDARY | execution_mode::PARALLEL
+            )
+            && r.bit(gj::request::ENABLE)
+            && r.u8(gj::request::MODE) == 2
+            && directions
+            && matches!(r.u16(gj::request::OVERRIDE), 1..=10_000 | 0xFFFF);
+        asks.then_some(Self {
+            joints_rad: None,
+            aborting: false,
+        })
+    }
+
+    fn from_move_axes(msg: &[u8]) -> Option<Self> {
         let h = CommandHeader::decode(msg);
         if h.command_type != maa::TYPE
             || !matches!(
@@ -154,7 +182,7 @@ impl MoveRequest {
             *q = f64::from(deg).to_radians();
         }
         Some(Self {
-            joints_rad,
+            joints_rad: Some(joints_rad),
             aborting: h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY,
         })
     }
@@ -162,11 +190,12 @@ impl MoveRequest {
     /// Whether `c` moves where this request asks (to well within a micro-radian).
     fn is_asked_by(&self, c: &MotionCommand) -> bool {
         self.aborting == c.aborting
-            && self
-                .joints_rad
-                .iter()
-                .zip(c.joints_rad)
-                .all(|(want, got)| (want - got).abs() < 1e-9)
+            && self.joints_rad.is_none_or(|joints| {
+                joints
+                    .iter()
+                    .zip(c.joints_rad)
+                    .all(|(want, got)| (want - got).abs() < 1e-9)
+            })
     }
 }
 

@@ -145,6 +145,8 @@ pub mod code {
     pub const SERVER_STATE_RESET: u16 = 0x6A03;
     pub const ROBOT_DISABLED: u16 = 0x8C03;
     pub const DISABLED_DUE_TO_ERROR: u16 = 0x8C04;
+    /// Jog not possible during an active movement.
+    pub const JOG_DURING_MOTION: u16 = 0x8C33;
     pub const SW_LIMIT_LOWER: u16 = 0x8C53;
     pub const SW_LIMIT_UPPER: u16 = 0x8C54;
     pub const INVALID_ACCELERATION_RATE: u16 = 0x8D01;
@@ -152,7 +154,11 @@ pub mod code {
     pub const INVALID_BLENDING_PARAMETER: u16 = 0x8D04;
     pub const INVALID_DECELERATION_RATE: u16 = 0x8D06;
     pub const INVALID_FRAME_NO: u16 = 0x8D08;
+    /// Incremental rotation invalid.
+    pub const INVALID_INCREMENTAL_ROTATION: u16 = 0x8D09;
     pub const INVALID_JERK_RATE: u16 = 0x8D11;
+    /// Positive and negative jog direction at the same time.
+    pub const JOG_BOTH_DIRECTIONS: u16 = 0x8D12;
     pub const INVALID_JOINT_POSITION: u16 = 0x8D13;
     pub const INVALID_LIFESIGN_TIMEOUT: u16 = 0x8D14;
     pub const INVALID_MODE: u16 = 0x8D21;

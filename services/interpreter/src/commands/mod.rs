@@ -1,6 +1,7 @@
 //! Command semantics: dispatch of complete command messages, the commands that live beyond
 //! one telegram (Enable-type commands and motion jobs), and the responses they send.
 
+mod jog;
 mod motion;
 mod robot;
 mod session;
@@ -17,7 +18,7 @@ use crate::server::{Effects, Now, Server};
 
 /// Command types this interpreter implements; RCSupportedFunctions announces exactly these.
 /// ReadActualPositionCyclic has no command type and is not offered yet.
-pub const IMPLEMENTED: [u16; 11] = [
+pub const IMPLEMENTED: [u16; 12] = [
     t::read_robot_data::TYPE,
     t::exchange_configuration::TYPE,
     t::read_messages::TYPE,
@@ -29,6 +30,7 @@ pub const IMPLEMENTED: [u16; 11] = [
     t::group_stop::TYPE,
     t::group_interrupt::TYPE,
     t::group_continue::TYPE,
+    t::group_jog::TYPE,
 ];
 
 /// A command that stays in the register after its first response.
@@ -62,6 +64,8 @@ pub enum LiveKind {
         since_ms: u64,
         reached: bool,
     },
+    /// GroupJog: the job of the jog motion (0 = none) and whether it is incremental.
+    Jog { job: u32, incremental: bool },
     /// A command executed by the planner as `job`; `progress` last sent (percent × 100);
     /// `aborts_moves` for a GroupStop issued while moves were in flight (AbortedSequence).
     Job {
@@ -92,6 +96,9 @@ pub fn describe(code: u16) -> &'static str {
         code::BLENDING_MODE_NOT_SUPPORTED => "BlendingMode not supported yet (exact stop only)",
         code::INVALID_JOINT_POSITION => "joint position is not a finite number",
         code::INVALID_OVERRIDE => "Override out of range 0..100 %",
+        code::JOG_DURING_MOTION => "jog not possible during an active movement",
+        code::JOG_BOTH_DIRECTIONS => "positive and negative jog direction at the same time",
+        code::INVALID_INCREMENTAL_ROTATION => "IncrementalRotation must be a number >= 0",
         code::INVALID_TIME => "move cannot be done in the requested time",
         code::TOOL_NOT_EXISTING => "ToolNo does not exist (only 0 and -1 so far)",
         code::FRAME_NOT_EXISTING => "FrameNo does not exist (only 0 and -1 so far)",
@@ -130,14 +137,17 @@ impl Server {
             return;
         }
         self.live.retain(|l| l.cmd_id != cmd_id);
-        let parallel_only = h.command_type != t::move_axes_absolute::TYPE;
-        let mode_ok = if parallel_only {
-            h.execution_mode == execution_mode::PARALLEL
-        } else {
-            matches!(
+        let mode_ok = match h.command_type {
+            t::move_axes_absolute::TYPE => matches!(
                 h.execution_mode,
                 execution_mode::SEQUENCE_PRIMARY | execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
-            )
+            ),
+            // Jogging belongs to the secondary sequence (its default) or runs in parallel.
+            t::group_jog::TYPE => matches!(
+                h.execution_mode,
+                execution_mode::SEQUENCE_SECONDARY | execution_mode::PARALLEL
+            ),
+            _ => h.execution_mode == execution_mode::PARALLEL,
         };
         let known = IMPLEMENTED.contains(&h.command_type);
         if known && !mode_ok {
@@ -167,6 +177,7 @@ impl Server {
             t::group_continue::TYPE => {
                 self.group_motion(cmd_id, h, MotionCommandKind::Continue, now, fx)
             }
+            t::group_jog::TYPE => self.group_jog(cmd_id, h, msg, now, fx),
             _ => self.respond(cmd_id, h, state::ERROR, code::NOT_IMPLEMENTED, now, |_| {}),
         }
     }
@@ -197,6 +208,7 @@ impl Server {
             LiveKind::Messages { .. } => self.update_read_messages(i, msg, now),
             LiveKind::Configuration => self.update_exchange_configuration(i, msg, now),
             LiveKind::Enable { .. } => self.update_enable_robot(i, msg, now, fx),
+            LiveKind::Jog { .. } => self.update_group_jog(i, msg, now, fx),
             // Execute-type commands take no updates; the new ParSeq is simply acknowledged
             // with the next response.
             LiveKind::Job { .. } => {}

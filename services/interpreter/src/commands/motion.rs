@@ -188,6 +188,10 @@ impl Server {
         let Some(i) = self.live.iter().position(|l| l.cmd_id == u.cmd_id) else {
             return;
         };
+        if matches!(self.live[i].kind, LiveKind::Jog { .. }) {
+            self.on_jog_update(i, u, now);
+            return;
+        }
         let h = self.live_header(i);
         let (progress, aborts_moves) = match self.live[i].kind {
             LiveKind::Job {

@@ -1,0 +1,288 @@
+//! GroupJog in joint mode: an Enable-type command whose direction bits move joints while
+//! they are set (continuous) or by a distance (incremental), at the jog override.
+//!
+//! Each change of the direction bits halts the jog motion on its path and, if bits remain,
+//! starts a new joint move: continuous jogging heads for the joint limit and stops on its
+//! path when the bit is released; incremental jogging moves by IncrementalRotation degrees.
+//! The response stays ACTIVE with Enabled, MotionActive and DistanceReached; Enable = FALSE
+//! ends the command DONE. Jogging in frame or tool coordinates needs Cartesian motion.
+
+use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind};
+use shared_types::srci::message::{CommandHeader, Percent, code, state};
+use shared_types::srci::payload::{Field, PayloadReader, PayloadWriter};
+use shared_types::srci::tables::group_jog as gj;
+
+use super::LiveKind;
+use crate::motion_link::JobUpdate;
+use crate::server::{Effects, Now, Server};
+
+/// Jog mode of joint (axis) jogging.
+const JOG_AXES: u8 = 2;
+/// Continuous jogging stops this far inside the joint limit (rad).
+const LIMIT_MARGIN: f64 = 0.5 * core::f64::consts::PI / 180.0;
+/// Acceleration share of the joint limits while jogging.
+const JOG_ACCELERATION: f64 = 0.5;
+
+/// The positive and negative direction bit of each joint.
+const DIRECTIONS: [(Field, Field); AXES] = [
+    (gj::request::X_J1_POS, gj::request::X_J1_NEG),
+    (gj::request::Y_J2_POS, gj::request::Y_J2_NEG),
+    (gj::request::Z_J3_POS, gj::request::Z_J3_NEG),
+    (gj::request::RX_J4_POS, gj::request::RX_J4_NEG),
+    (gj::request::RY_J5_POS, gj::request::RY_J5_NEG),
+    (gj::request::RZ_J6_POS, gj::request::RZ_J6_NEG),
+];
+
+/// A decoded GroupJog request.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct JogRequest {
+    pub enable: bool,
+    /// Per joint: +1, -1 or 0.
+    pub directions: [i8; AXES],
+    /// Fraction of the joint velocity limits, (0, 1].
+    pub velocity_scale: f64,
+    /// Incremental distance in rad; 0 = continuous.
+    pub increment: f64,
+}
+
+/// Checks a GroupJog request (joint mode only) and returns it, or the code that refuses it.
+pub(crate) fn decode_jog(msg: &[u8]) -> Result<JogRequest, u16> {
+    let r = PayloadReader::new(msg);
+    let enable = r.bit(gj::request::ENABLE);
+    if r.u8(gj::request::MODE) != JOG_AXES {
+        // Frame and tool jogging move the TCP on Cartesian paths, which come later.
+        return Err(code::NOT_IMPLEMENTED);
+    }
+    let mut directions = [0i8; AXES];
+    for (d, (pos, neg)) in directions.iter_mut().zip(DIRECTIONS) {
+        *d = match (r.bit(pos), r.bit(neg)) {
+            (true, true) => return Err(code::JOG_BOTH_DIRECTIONS),
+            (true, false) => 1,
+            (false, true) => -1,
+            (false, false) => 0,
+        };
+    }
+    let override_percent = match Percent::from_wire(r.u16(gj::request::OVERRIDE)) {
+        Percent::Default => 10.0,
+        Percent::Value(p) if p <= 100.0 => p,
+        Percent::Value(_) => return Err(code::INVALID_OVERRIDE),
+    };
+    let increment = f64::from(r.f32(gj::request::INCREMENTAL_ROTATION));
+    if !increment.is_finite() || increment < 0.0 {
+        return Err(code::INVALID_INCREMENTAL_ROTATION);
+    }
+    Ok(JogRequest {
+        enable,
+        directions,
+        // 0 % means no movement: the move is simply not started.
+        velocity_scale: override_percent / 100.0,
+        increment: increment.to_radians(),
+    })
+}
+
+impl JogRequest {
+    fn moves(&self) -> bool {
+        self.enable && self.velocity_scale > 0.0 && self.directions.iter().any(|d| *d != 0)
+    }
+
+    /// The joint target of this jog from `q` within `[min, max]`.
+    fn target(&self, q: [f64; AXES], min: [f64; AXES], max: [f64; AXES]) -> [f64; AXES] {
+        core::array::from_fn(|i| {
+            let (lo, hi) = (min[i] + LIMIT_MARGIN, max[i] - LIMIT_MARGIN);
+            let goal = match self.directions[i] {
+                0 => return q[i],
+                d if self.increment > 0.0 => q[i] + f64::from(d) * self.increment,
+                1 => hi,
+                _ => lo,
+            };
+            goal.clamp(lo.min(q[i]), hi.max(q[i]))
+        })
+    }
+}
+
+impl Server {
+    pub(crate) fn group_jog(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        msg: &[u8],
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        let i = self.keep_live(
+            cmd_id,
+            h,
+            LiveKind::Jog {
+                job: 0,
+                incremental: false,
+            },
+        );
+        self.update_group_jog(i, msg, now, fx);
+    }
+
+    pub(crate) fn update_group_jog(&mut self, i: usize, msg: &[u8], now: Now, fx: &mut Effects) {
+        let cmd_id = self.live[i].cmd_id;
+        let h = self.live_header(i);
+        let LiveKind::Jog { job: running, .. } = self.live[i].kind else {
+            return;
+        };
+        let request = match decode_jog(msg) {
+            Ok(r) => r,
+            Err(c) => return self.respond(cmd_id, h, state::ERROR, c, now, |_| {}),
+        };
+        let busy = self
+            .status
+            .is_some_and(|s| (s.active_job != 0 && s.active_job != running) || s.queued_jobs > 0);
+        if request.moves() && busy {
+            return self.respond(
+                cmd_id,
+                h,
+                state::ERROR,
+                code::JOG_DURING_MOTION,
+                now,
+                |_| {},
+            );
+        }
+        if request.moves() && !self.drives_enabled() {
+            return self.respond(cmd_id, h, state::ERROR, code::ROBOT_DISABLED, now, |_| {});
+        }
+        if running != 0 {
+            // The previous jog motion stops on its path; its job ends ABORTED quietly.
+            let _ = self.motion.submit(
+                MotionCommand::new(MotionCommandKind::Halt),
+                None,
+                now.mono_ms,
+                &mut fx.motion,
+            );
+        }
+        if !request.enable {
+            self.respond(cmd_id, h, state::DONE, 0, now, |_| {});
+            return;
+        }
+        let mut job = 0;
+        if request.moves()
+            && let Some(status) = self.status
+        {
+            let limits = &self.settings.limits;
+            let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+            c.joints_rad = request.target(status.joints_rad, limits.min, limits.max);
+            c.velocity_scale = request.velocity_scale;
+            c.acceleration_scale = JOG_ACCELERATION;
+            match self.motion.submit(
+                c,
+                Some((cmd_id, h.par_seq, gj::TYPE)),
+                now.mono_ms,
+                &mut fx.motion,
+            ) {
+                Some(j) => job = j,
+                None => {
+                    return self.respond(
+                        cmd_id,
+                        h,
+                        state::ERROR,
+                        code::INTERNAL_ERROR,
+                        now,
+                        |_| {},
+                    );
+                }
+            }
+        }
+        self.live[i].kind = LiveKind::Jog {
+            job,
+            incremental: request.increment > 0.0,
+        };
+        self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
+            let mut w = PayloadWriter::new(b);
+            w.set_bit(gj::response::ENABLED, true);
+            w.set_bit(gj::response::MOTION_ACTIVE, job != 0);
+        });
+    }
+
+    /// A state change of the jog motion: the GroupJog command stays ACTIVE and reports
+    /// whether the arm moves and whether an incremental distance was reached.
+    pub(crate) fn on_jog_update(&mut self, i: usize, u: JobUpdate, now: Now) {
+        let LiveKind::Jog { job, incremental } = self.live[i].kind else {
+            return;
+        };
+        if u.job != job {
+            return;
+        }
+        let h = self.live_header(i);
+        if u.state == state::ERROR {
+            self.respond(u.cmd_id, h, state::ERROR, u.code, now, |_| {});
+            return;
+        }
+        let active = !state::is_final(u.state);
+        if !active {
+            self.live[i].kind = LiveKind::Jog {
+                job: 0,
+                incremental,
+            };
+        }
+        let reached = incremental && u.state == state::DONE;
+        self.respond(u.cmd_id, h, state::ACTIVE, 0, now, |b| {
+            let mut w = PayloadWriter::new(b);
+            w.set_bit(gj::response::ENABLED, true);
+            w.set_bit(gj::response::MOTION_ACTIVE, active);
+            w.set_bit(gj::response::DISTANCE_REACHED, reached);
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn request(edit: impl FnOnce(&mut PayloadWriter)) -> Vec<u8> {
+        let mut b = vec![0u8; gj::request::LEN];
+        let mut w = PayloadWriter::new(&mut b);
+        w.set_bit(gj::request::ENABLE, true);
+        w.set_u8(gj::request::MODE, JOG_AXES);
+        w.set_u16(gj::request::OVERRIDE, 5000);
+        edit(&mut w);
+        b
+    }
+
+    #[test]
+    fn decodes_directions_override_and_increment() {
+        let r = decode_jog(&request(|w| {
+            w.set_bit(gj::request::Y_J2_POS, true);
+            w.set_bit(gj::request::RZ_J6_NEG, true);
+            w.set_f32(gj::request::INCREMENTAL_ROTATION, 5.0);
+        }))
+        .unwrap();
+        assert_eq!(r.directions, [0, 1, 0, 0, 0, -1]);
+        assert_eq!(r.velocity_scale, 0.5);
+        assert!((r.increment - 5f64.to_radians()).abs() < 1e-12);
+        assert!(r.moves());
+    }
+
+    #[test]
+    fn refuses_with_the_reference_codes() {
+        let both = request(|w| {
+            w.set_bit(gj::request::X_J1_POS, true);
+            w.set_bit(gj::request::X_J1_NEG, true);
+        });
+        assert_eq!(decode_jog(&both), Err(code::JOG_BOTH_DIRECTIONS));
+        let frame = request(|w| w.set_u8(gj::request::MODE, 0));
+        assert_eq!(decode_jog(&frame), Err(code::NOT_IMPLEMENTED));
+        let fast = request(|w| w.set_u16(gj::request::OVERRIDE, 10_001));
+        assert_eq!(decode_jog(&fast), Err(code::INVALID_OVERRIDE));
+    }
+
+    #[test]
+    fn continuous_jog_heads_for_the_limit_and_incremental_moves_by_the_distance() {
+        let min = [-1.0; AXES];
+        let max = [1.0; AXES];
+        let q = [0.0, 0.2, 0.0, 0.0, 0.0, 0.0];
+        let mut r = decode_jog(&request(|w| w.set_bit(gj::request::Y_J2_POS, true))).unwrap();
+        let t = r.target(q, min, max);
+        assert!((t[1] - (1.0 - LIMIT_MARGIN)).abs() < 1e-12);
+        assert_eq!(t[0], 0.0);
+        r.increment = 0.1;
+        assert!((r.target(q, min, max)[1] - 0.3).abs() < 1e-12);
+        // Never beyond the limit margin, even in increments.
+        r.increment = 5.0;
+        assert!((r.target(q, min, max)[1] - (1.0 - LIMIT_MARGIN)).abs() < 1e-12);
+    }
+}
