@@ -392,3 +392,84 @@ fn group_jog_moves_a_joint_while_its_bit_is_set() {
     let done = run_until_state(&mut plc, handle, state::DONE, Duration::from_secs(5));
     assert_eq!((done.state, done.code), (state::DONE, 0), "{done:?}");
 }
+
+/// A config edit that keeps the user data in `dir`.
+fn with_data_dir(dir: &std::path::Path) -> impl FnOnce(String) -> String {
+    let line = format!("data_dir = \"{}\"", dir.display());
+    move |text: String| {
+        text.lines()
+            .map(|l| {
+                if l.starts_with("data_dir = ") {
+                    line.clone()
+                } else {
+                    l.to_string()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+}
+
+#[test]
+fn tool_data_is_stored_and_survives_a_restart() {
+    use shared_types::srci::payload::{PayloadReader, PayloadWriter};
+    use shared_types::srci::tables::{read_tool_data as rtd, write_tool_data as wtd};
+    let data = std::env::temp_dir().join(format!("rc-test-userdata-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&data);
+    let mut write = vec![0u8; wtd::request::LEN];
+    {
+        let mut w = PayloadWriter::new(&mut write);
+        w.set_f32(wtd::request::TOOL_DATA_X, 12.5);
+        w.set_f32(wtd::request::TOOL_DATA_Z, 150.0);
+        w.set_f32(wtd::request::TOOL_DATA_RZ, 45.0);
+        w.set_u8(wtd::request::TOOL_DATA_LOAD_NO, 1);
+        w.set_u8(wtd::request::TOOL_NO, 3);
+    }
+    {
+        let c = Controller::start_with("tool1", with_data_dir(&data));
+        let mut plc = c.client();
+        initialize(&mut plc);
+        let s = execute(
+            &mut plc,
+            &Request::Raw {
+                command_type: wtd::TYPE,
+                execution_mode: 2,
+                payload: write[4..].to_vec(),
+            },
+            Duration::from_secs(5),
+        );
+        assert_eq!((s.state, s.code), (state::DONE, 0), "WriteToolData: {s:?}");
+        let zero = execute(
+            &mut plc,
+            &Request::Raw {
+                command_type: wtd::TYPE,
+                execution_mode: 2,
+                payload: vec![0; wtd::request::LEN - 4],
+            },
+            Duration::from_secs(5),
+        );
+        assert_eq!(zero.state, state::ERROR, "tool 0 is the flange: {zero:?}");
+        plc.run_for(Duration::from_millis(200))
+            .expect("saved in the background");
+    }
+    let c = Controller::start_with("tool2", with_data_dir(&data));
+    let mut plc = c.client();
+    initialize(&mut plc);
+    let s = execute(
+        &mut plc,
+        &Request::Raw {
+            command_type: rtd::TYPE,
+            execution_mode: 2,
+            payload: vec![3],
+        },
+        Duration::from_secs(5),
+    );
+    assert_eq!((s.state, s.code), (state::DONE, 0), "ReadToolData: {s:?}");
+    assert_eq!(s.response.len(), rtd::response::LEN);
+    let r = PayloadReader::new(&s.response);
+    assert_eq!(r.f32(rtd::response::TOOL_DATA_X), 12.5);
+    assert_eq!(r.f32(rtd::response::TOOL_DATA_Z), 150.0);
+    assert_eq!(r.f32(rtd::response::TOOL_DATA_RZ), 45.0);
+    assert_eq!(r.u8(rtd::response::TOOL_NO), 3);
+    let _ = std::fs::remove_dir_all(&data);
+}

@@ -161,7 +161,11 @@ mod tests {
             ..CyclicPosition::default()
         };
         l.write(&mut out, &p);
-        assert_eq!(&out[34..40], &[0b101, 0, 0x2B, 0, 0, 0], "Config WORD and turns");
+        assert_eq!(
+            &out[34..40],
+            &[0b101, 0, 0x2B, 0, 0, 0],
+            "Config WORD and turns"
+        );
         let f = |at: usize| f32::from_be_bytes([out[at], out[at + 1], out[at + 2], out[at + 3]]);
         assert_eq!(f(10), 500.0);
         assert_eq!(f(10 + 20), 90.0);

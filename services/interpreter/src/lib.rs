@@ -10,5 +10,6 @@ pub mod motion_link;
 pub mod responses;
 pub mod server;
 mod service;
+pub mod user_data;
 
 pub use service::{InterpreterError, run};

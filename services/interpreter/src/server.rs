@@ -26,6 +26,7 @@ use crate::cyclic::{CyclicLayout, CyclicPosition};
 use crate::messages::{MessageLog, MessageType};
 use crate::motion_link::{JobUpdate, MotionLink, PlannerFault};
 use crate::responses::ResponseQueue;
+use crate::user_data::UserData;
 
 /// Settings of the server core, taken from the configuration at start-up.
 #[derive(Debug, Clone)]
@@ -121,13 +122,15 @@ pub struct Server {
     pub(crate) status: Option<MotionStatus>,
     pub(crate) override_percent: f64,
     pub(crate) error_pending: bool,
+    /// Tools, frames, loads, dynamics and SW limits (persisted by the service shell).
+    pub user_data: UserData,
     last_drive_fault: u16,
     last_planner_error: u16,
 }
 
 impl Server {
     /// A server in READY_FOR_INITIALIZATION; `issuer` identifies this process instance.
-    pub fn new(settings: Settings, issuer: u64) -> Self {
+    pub fn new(settings: Settings, issuer: u64, user_data: UserData) -> Self {
         let acr_length = settings.acr_length;
         Self {
             telegram_state: ts::READY_FOR_INITIALIZATION,
@@ -150,6 +153,7 @@ impl Server {
             status: None,
             override_percent: settings.initial_override_percent,
             error_pending: false,
+            user_data,
             last_drive_fault: 0,
             last_planner_error: 0,
             settings,
@@ -641,6 +645,18 @@ impl Server {
         );
     }
 
+    /// Records a warning of the robot controller (e.g. about its stored data) for
+    /// ReadMessages.
+    pub fn raise_warning(&mut self, now: Now, text: &str) {
+        self.raise(
+            now,
+            MessageType::Controller,
+            severity::WARNING,
+            code::INTERNAL_ERROR,
+            text,
+        );
+    }
+
     /// Records a message for ReadMessages.
     pub(crate) fn raise(&mut self, now: Now, kind: MessageType, sev: i8, code: u16, text: &str) {
         self.messages
@@ -727,7 +743,7 @@ fn newer(a: u16, b: u16) -> bool {
 }
 
 /// Formats into a fixed buffer without allocating; text that does not fit is cut.
-pub(crate) fn write_text<'a>(buf: &'a mut [u8], args: core::fmt::Arguments<'_>) -> &'a str {
+pub fn write_text<'a>(buf: &'a mut [u8], args: core::fmt::Arguments<'_>) -> &'a str {
     struct Cursor<'b> {
         buf: &'b mut [u8],
         len: usize,

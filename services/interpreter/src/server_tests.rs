@@ -62,6 +62,12 @@ mod alloc_counter {
 #[global_allocator]
 static ALLOCATOR: alloc_counter::Counting = alloc_counter::Counting;
 
+/// The factory user data of the embedded robot.
+fn user_data() -> crate::user_data::UserData {
+    let cfg = shared_types::config::Config::load(None).unwrap();
+    crate::user_data::UserData::factory(crate::user_data::RobotBounds::of(&cfg.robot).0)
+}
+
 fn settings(len: usize) -> Settings {
     let cfg = shared_types::config::Config::load(None).unwrap();
     Settings {
@@ -279,7 +285,7 @@ fn status(instance: u64, events: &[(u64, u32, u8, u16)]) -> MotionStatus {
 
 /// An initialized session with a live planner (instance 5) and drives in `drives`.
 fn session(drives: DriveState) -> (Server, Plc, Effects) {
-    let mut server = Server::new(settings(256), 9);
+    let mut server = Server::new(settings(256), 9, user_data());
     let mut plc = Plc::new(256);
     plc.initialize(&mut server);
     let mut fx = Effects::new();
@@ -290,7 +296,7 @@ fn session(drives: DriveState) -> (Server, Plc, Effects) {
 
 #[test]
 fn initializes_from_254_to_255_and_acknowledges_sequences() {
-    let mut server = Server::new(settings(256), 9);
+    let mut server = Server::new(settings(256), 9, user_data());
     let mut plc = Plc::new(256);
     assert_eq!(plc.exchange(&mut server, &[]), ts::READY_FOR_INITIALIZATION);
     plc.initialize(&mut server);
@@ -320,7 +326,7 @@ fn header_faults_give_their_telegram_states_and_reset_recovers() {
         (|p| p.number_p2r = 1 << 8, ts::TELEGRAM_NUMBER_INVALID),
     ];
     for (fault, expected) in cases {
-        let mut server = Server::new(settings(256), 9);
+        let mut server = Server::new(settings(256), 9, user_data());
         let mut plc = Plc::new(256);
         fault(&mut plc);
         plc.control = Control::Initialize;
@@ -332,7 +338,7 @@ fn header_faults_give_their_telegram_states_and_reset_recovers() {
 
 #[test]
 fn frozen_lifesign_gives_165_and_halts_motion() {
-    let mut server = Server::new(settings(256), 9);
+    let mut server = Server::new(settings(256), 9, user_data());
     let mut plc = Plc::new(256);
     plc.initialize(&mut server);
     plc.freeze_lifesign = true;
@@ -347,7 +353,7 @@ fn frozen_lifesign_gives_165_and_halts_motion() {
             .any(|c| c.kind == MotionCommandKind::Halt as u8)
     );
     // A changed header after initialization is refused as well.
-    let mut server = Server::new(settings(256), 9);
+    let mut server = Server::new(settings(256), 9, user_data());
     let mut plc = Plc::new(256);
     plc.initialize(&mut server);
     plc.number_r2p = 2;
@@ -356,7 +362,7 @@ fn frozen_lifesign_gives_165_and_halts_motion() {
 
 #[test]
 fn torn_frames_are_not_interpreted() {
-    let mut server = Server::new(settings(64), 9);
+    let mut server = Server::new(settings(64), 9, user_data());
     let mut plc = Plc::new(64);
     plc.initialize(&mut server);
     let mut tx = vec![0u8; 64];
@@ -371,7 +377,7 @@ fn torn_frames_are_not_interpreted() {
 
 #[test]
 fn unsupported_command_is_answered_8f11_once_per_sequence() {
-    let mut server = Server::new(settings(256), 9);
+    let mut server = Server::new(settings(256), 9, user_data());
     let mut plc = Plc::new(256);
     plc.initialize(&mut server);
     let msg = request(
@@ -391,7 +397,7 @@ fn unsupported_command_is_answered_8f11_once_per_sequence() {
 
 #[test]
 fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
-    let mut server = Server::new(settings(64), 9);
+    let mut server = Server::new(settings(64), 9, user_data());
     let mut plc = Plc::new(64);
     plc.initialize(&mut server);
     plc.command(
@@ -540,7 +546,7 @@ fn planner_restart_ends_moves_with_an_error_until_group_reset() {
 
 #[test]
 fn read_messages_delivers_and_takes_acknowledgements() {
-    let mut server = Server::new(settings(256), 9);
+    let mut server = Server::new(settings(256), 9, user_data());
     let mut plc = Plc::new(256);
     plc.initialize(&mut server);
     let mut rm = request(t::read_messages::TYPE, 2, t::read_messages::request::LEN);
@@ -640,7 +646,7 @@ fn steady_state_telegrams_do_not_allocate() {
 
 #[test]
 fn cyclic_position_blocks_come_with_every_telegram_and_shift_the_sequences() {
-    let mut server = Server::new(settings(256), 9);
+    let mut server = Server::new(settings(256), 9, user_data());
     let mut plc = Plc::new(256);
     plc.number_r2p = crate::cyclic::CARTESIAN_POSITION | crate::cyclic::JOINT_POSITION;
     plc.cyclic = (2, 70);
@@ -666,7 +672,7 @@ fn cyclic_position_blocks_come_with_every_telegram_and_shift_the_sequences() {
         "J2 in degrees from the drives"
     );
     // Blocks the robot does not offer are refused at INITIALIZE.
-    let mut server = Server::new(settings(256), 9);
+    let mut server = Server::new(settings(256), 9, user_data());
     let mut plc = Plc::new(256);
     plc.number_r2p = 1 << 3;
     plc.control = Control::Initialize;

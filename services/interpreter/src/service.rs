@@ -11,13 +11,16 @@ use shared_types::ipc::{
     ServoFeedback, TELEGRAM_CAPACITY, topics,
 };
 
-use crate::server::{Effects, Now, Server, Settings};
+use crate::server::{Effects, Now, Server, Settings, write_text};
+use crate::user_data::{Saver, UserData};
 
 /// The interpreter process failed.
 #[derive(Debug, thiserror::Error)]
 pub enum InterpreterError {
     #[error(transparent)]
     Bus(#[from] BusError),
+    #[error("user data folder {dir}: {source}")]
+    UserData { dir: String, source: std::io::Error },
 }
 
 /// Longest wait for a telegram before periodic work runs (lifesign supervision granularity).
@@ -69,7 +72,21 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
     shared_types::supervision::ready();
 
     let issuer = now().unix_ms ^ (u64::from(std::process::id()) << 40);
-    let mut server = Server::new(settings(config), issuer);
+    let data_dir = config.main.data_dir();
+    let (user_data, warnings) = UserData::load(&data_dir, &config.robot);
+    let saver = Saver::spawn(data_dir.clone(), config.robot.name.clone()).map_err(|source| {
+        InterpreterError::UserData {
+            dir: data_dir.display().to_string(),
+            source,
+        }
+    })?;
+    let mut server = Server::new(settings(config), issuer, user_data);
+    for w in warnings {
+        tracing::warn!(%w, "user data");
+        let mut text = [0u8; 150];
+        let text = write_text(&mut text, format_args!("{w}"));
+        server.raise_warning(now(), text);
+    }
     let mut fx = Effects::new();
     let mut answer = RobotTelegram {
         counter: 0,
@@ -137,6 +154,16 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
             control_published_ms = t.mono_ms;
         }
         fx.clear();
+        // Written by the saver thread, so the telegram loop never waits for the disk.
+        if let Some(data) = server.user_data.take_unsaved() {
+            saver.submit(data);
+        }
+        if let Some(e) = saver.take_failure() {
+            tracing::error!(%e, "user data not saved");
+            let mut text = [0u8; 150];
+            let text = write_text(&mut text, format_args!("user data not saved: {e}"));
+            server.raise_warning(t, text);
+        }
         let state = server.telegram_state();
         if state != last_state {
             tracing::info!(from = last_state, to = state, "TelegramState changed");

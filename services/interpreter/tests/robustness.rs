@@ -24,6 +24,7 @@ use std::collections::{HashMap, VecDeque};
 use interpreter::acr::MESSAGE_CAPACITY;
 use interpreter::commands::IMPLEMENTED;
 use interpreter::server::{Effects, Now, Server, Settings};
+use interpreter::user_data::{RobotBounds, UserData};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::{Index, select};
@@ -230,6 +231,7 @@ impl Harness {
             server: Server::new(
                 settings(length_plc_to_rob, length_rob_to_plc, acr_length),
                 ISSUER,
+                UserData::factory(RobotBounds::of(&Config::load(None).unwrap().robot).0),
             ),
             fx: Effects::new(),
             now_ms: 1_000,

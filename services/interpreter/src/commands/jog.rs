@@ -163,9 +163,9 @@ impl Server {
         if request.moves()
             && let Some(status) = self.status
         {
-            let limits = &self.settings.limits;
+            let limits = self.user_data.sw_limits_rad();
             let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
-            c.joints_rad = request.target(status.joints_rad, limits.min, limits.max);
+            c.joints_rad = request.target(status.joints_rad, limits.lower, limits.upper);
             c.velocity_scale = request.velocity_scale;
             c.acceleration_scale = JOG_ACCELERATION;
             match self.motion.submit(

@@ -5,6 +5,7 @@ mod jog;
 mod motion;
 mod robot;
 mod session;
+mod user_data;
 
 use shared_types::srci::message::{
     CommandHeader, ResponseHeader, code, execution_mode, severity, state,
@@ -18,7 +19,7 @@ use crate::server::{Effects, Now, Server};
 
 /// Command types this interpreter implements; RCSupportedFunctions announces exactly these.
 /// ReadActualPositionCyclic has no command type and is not offered yet.
-pub const IMPLEMENTED: [u16; 12] = [
+pub const IMPLEMENTED: [u16; 24] = [
     t::read_robot_data::TYPE,
     t::exchange_configuration::TYPE,
     t::read_messages::TYPE,
@@ -31,6 +32,18 @@ pub const IMPLEMENTED: [u16; 12] = [
     t::group_interrupt::TYPE,
     t::group_continue::TYPE,
     t::group_jog::TYPE,
+    t::read_tool_data::TYPE,
+    t::write_tool_data::TYPE,
+    t::read_frame_data::TYPE,
+    t::write_frame_data::TYPE,
+    t::read_load_data::TYPE,
+    t::write_load_data::TYPE,
+    t::read_robot_default_dynamics::TYPE,
+    t::write_robot_default_dynamics::TYPE,
+    t::read_robot_reference_dynamics::TYPE,
+    t::write_robot_reference_dynamics::TYPE,
+    t::read_robot_sw_limits::TYPE,
+    t::write_robot_sw_limits::TYPE,
 ];
 
 /// A command that stays in the register after its first response.
@@ -107,7 +120,7 @@ pub fn describe(code: u16) -> &'static str {
         code::MOTION_ERROR => "motion error: the move was stopped",
         code::INVALID_MODE => "MessageLevel is not a defined value",
         code::INTERNAL_ERROR => "internal error (Active Command Register full or message too long)",
-        _ => "command ended with an error",
+        _ => crate::user_data::codes::describe(code).unwrap_or("command ended with an error"),
     }
 }
 
@@ -178,6 +191,7 @@ impl Server {
                 self.group_motion(cmd_id, h, MotionCommandKind::Continue, now, fx)
             }
             t::group_jog::TYPE => self.group_jog(cmd_id, h, msg, now, fx),
+            _ if self.user_data_command(cmd_id, h, msg, now) => {}
             _ => self.respond(cmd_id, h, state::ERROR, code::NOT_IMPLEMENTED, now, |_| {}),
         }
     }

@@ -12,12 +12,8 @@ use super::LiveKind;
 use super::robot::CURRENT_INDEX;
 use crate::motion_link::JobUpdate;
 use crate::server::{Effects, Now, Server};
+use crate::user_data::{DefaultRates, SwLimitsRad};
 
-/// Rates used when a move leaves them at the default (0xFFFF), percent. They become
-/// writable with WriteRobotDefaultDynamics.
-const DEFAULT_VELOCITY_RATE: f64 = 50.0;
-const DEFAULT_ACCELERATION_RATE: f64 = 50.0;
-const DEFAULT_JERK_RATE: f64 = 100.0;
 /// "0 %: use internal minimal velocity".
 const MIN_RATE: f64 = 1.0;
 /// Progress refreshes of one move are at most this often.
@@ -32,17 +28,23 @@ fn rate(wire: u16, default: f64, invalid: u16) -> Result<f64, u16> {
     }
 }
 
-/// Checks a MoveAxesAbsolute request and turns it into a planner command.
-fn decode_move_axes(msg: &[u8], h: CommandHeader) -> Result<MotionCommand, u16> {
+/// Checks a MoveAxesAbsolute request and turns it into a planner command; rates left at
+/// default take the default dynamics, targets must lie within the SW limits.
+fn decode_move_axes(
+    msg: &[u8],
+    h: CommandHeader,
+    defaults: DefaultRates,
+    limits: SwLimitsRad,
+) -> Result<MotionCommand, u16> {
     let r = PayloadReader::new(msg);
     let velocity = rate(
         r.u16(maa::request::VELOCITY_RATE),
-        DEFAULT_VELOCITY_RATE,
+        defaults.velocity,
         code::INVALID_VELOCITY_RATE,
     )?;
     let acceleration = rate(
         r.u16(maa::request::ACCELERATION_RATE),
-        DEFAULT_ACCELERATION_RATE,
+        defaults.acceleration,
         code::INVALID_ACCELERATION_RATE,
     )?;
     if r.u16(maa::request::DECELERATION_RATE) != 0xFFFF {
@@ -50,7 +52,7 @@ fn decode_move_axes(msg: &[u8], h: CommandHeader) -> Result<MotionCommand, u16> 
     }
     let jerk = rate(
         r.u16(maa::request::JERK_RATE),
-        DEFAULT_JERK_RATE,
+        defaults.jerk,
         code::INVALID_JERK_RATE,
     )?;
     let tool = r.u8(maa::request::TOOL_NO);
@@ -64,12 +66,20 @@ fn decode_move_axes(msg: &[u8], h: CommandHeader) -> Result<MotionCommand, u16> 
     }
     let fields = maa::request::JOINT_POSITION_J1_J6;
     let mut joints = [0.0; AXES];
-    for (q, f) in joints.iter_mut().zip(fields) {
+    for (i, (q, f)) in joints.iter_mut().zip(fields).enumerate() {
         let deg = r.f32(f);
         if !deg.is_finite() {
             return Err(code::INVALID_JOINT_POSITION);
         }
         *q = f64::from(deg).to_radians();
+        // Checked here against the SW limits the PLC may have narrowed; the planner checks
+        // the mechanical limits again.
+        if *q < limits.lower[i] {
+            return Err(code::SW_LIMIT_LOWER);
+        }
+        if *q > limits.upper[i] {
+            return Err(code::SW_LIMIT_UPPER);
+        }
     }
     let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
     c.aborting = h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY;
@@ -95,7 +105,12 @@ impl Server {
         } else if !self.drives_enabled() {
             Err(code::ROBOT_DISABLED)
         } else {
-            decode_move_axes(msg, h)
+            decode_move_axes(
+                msg,
+                h,
+                self.user_data.default_rates(),
+                self.user_data.sw_limits_rad(),
+            )
         };
         match checked {
             Ok(command) => self.submit_job(cmd_id, h, command, now, fx),
@@ -283,6 +298,20 @@ mod tests {
         b
     }
 
+    fn decode(msg: &[u8], h: CommandHeader) -> Result<MotionCommand, u16> {
+        let defaults = DefaultRates {
+            velocity: 50.0,
+            acceleration: 50.0,
+            deceleration: 50.0,
+            jerk: 100.0,
+        };
+        let limits = SwLimitsRad {
+            lower: [-3.0; AXES],
+            upper: [3.0; AXES],
+        };
+        decode_move_axes(msg, h, defaults, limits)
+    }
+
     fn header(mode: u8) -> CommandHeader {
         CommandHeader {
             command_type: maa::TYPE,
@@ -294,21 +323,25 @@ mod tests {
 
     #[test]
     fn decodes_defaults_and_degrees() {
-        let c = decode_move_axes(&request(|_| {}), header(0)).unwrap();
+        let c = decode(&request(|_| {}), header(0)).unwrap();
         assert!((c.joints_rad[1] - core::f64::consts::FRAC_PI_2).abs() < 1e-6);
         assert_eq!(c.velocity_scale, 0.5);
         assert!(!c.aborting);
-        assert!(
-            decode_move_axes(&request(|_| {}), header(1))
-                .unwrap()
-                .aborting
-        );
+        assert!(decode(&request(|_| {}), header(1)).unwrap().aborting);
     }
 
     #[test]
     fn rejects_out_of_range_parameters_with_their_codes() {
         type Edit = fn(&mut PayloadWriter);
-        let cases: [(Edit, u16); 6] = [
+        let cases: [(Edit, u16); 8] = [
+            (
+                |w| w.set_f32(maa::request::JOINT_POSITION_J1, 200.0),
+                code::SW_LIMIT_UPPER,
+            ),
+            (
+                |w| w.set_f32(maa::request::JOINT_POSITION_J6, -200.0),
+                code::SW_LIMIT_LOWER,
+            ),
             (
                 |w| w.set_u16(maa::request::VELOCITY_RATE, 10_001),
                 code::INVALID_VELOCITY_RATE,
@@ -335,16 +368,13 @@ mod tests {
             ),
         ];
         for (edit, expected) in cases {
-            assert_eq!(
-                decode_move_axes(&request(edit), header(0)).unwrap_err(),
-                expected
-            );
+            assert_eq!(decode(&request(edit), header(0)).unwrap_err(), expected);
         }
     }
 
     #[test]
     fn zero_rate_means_minimal_velocity() {
-        let c = decode_move_axes(
+        let c = decode(
             &request(|w| w.set_u16(maa::request::VELOCITY_RATE, 0)),
             header(0),
         )

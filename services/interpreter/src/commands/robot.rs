@@ -8,8 +8,7 @@ use shared_types::srci::tables::{enable_robot as er, read_actual_position as rap
 use super::LiveKind;
 use crate::server::{Effects, Now, Server};
 
-/// ToolNo/FrameNo -1 ("currently used") on the wire.
-pub(crate) const CURRENT_INDEX: u8 = 0xFF;
+pub(crate) use crate::user_data::CURRENT_INDEX;
 
 impl Server {
     pub(crate) fn enable_robot(

@@ -9,6 +9,7 @@ use shared_types::srci::tables::{
 
 use super::{IMPLEMENTED, LiveKind};
 use crate::server::{Now, Server};
+use crate::user_data::{DataSet, HIGHEST_INDEX};
 
 /// Lower limit of LifeSignTimeOut; smaller values are raised to it (info 0x6001).
 const MIN_LIFESIGN_MS: u16 = 10;
@@ -91,10 +92,35 @@ impl Server {
             requested
         };
         let acr = u16::try_from(self.acr.length()).unwrap_or(u16::MAX);
+        let data = &self.user_data;
+        let change = [
+            (
+                xc::response::CHANGE_INDEX_TOOL,
+                data.change_index(DataSet::Tool),
+            ),
+            (
+                xc::response::CHANGE_INDEX_FRAME,
+                data.change_index(DataSet::Frame),
+            ),
+            (
+                xc::response::CHANGE_INDEX_LOAD,
+                data.change_index(DataSet::Load),
+            ),
+        ];
         self.respond(cmd_id, h, state::ACTIVE, info, now, |b| {
             let mut w = PayloadWriter::new(b);
             w.set_bit(xc::response::ENABLED, true);
             w.set_u16(xc::response::LENGTH_ACR, acr);
+            for f in [
+                xc::response::HIGHEST_TOOL_INDEX,
+                xc::response::HIGHEST_FRAME_INDEX,
+                xc::response::HIGHEST_LOAD_INDEX,
+            ] {
+                w.set_u8(f, HIGHEST_INDEX);
+            }
+            for (f, index) in change {
+                w.set_u8(f, index);
+            }
         });
     }
 
