@@ -111,6 +111,9 @@ pub enum MotionCommandKind {
     Interrupt = 6,
     /// GroupContinue: resume the interrupted primary sequence on its path.
     Continue = 7,
+    /// Joint-interpolated move to the Cartesian flange pose `pose` (MoveDirectAbsolute): the
+    /// planner chooses the joint target by inverse kinematics.
+    MoveDirect = 8,
 }
 
 impl MotionCommandKind {
@@ -124,6 +127,7 @@ impl MotionCommandKind {
             5 => Self::Halt,
             6 => Self::Interrupt,
             7 => Self::Continue,
+            8 => Self::MoveDirect,
             _ => return None,
         })
     }
@@ -157,6 +161,15 @@ pub struct MotionCommand {
     pub duration_s: f64,
     /// Override for `Override`, in [0, 1].
     pub override_fraction: f64,
+    /// Flange target of `MoveDirect`: x, y, z in m, Rx, Ry, Rz in rad (R = Rz·Ry·Rx).
+    pub pose: [f64; 6],
+    /// SRCI configuration bits and TurnNumber bytes sent with the pose.
+    pub arm_config: u8,
+    pub turn_numbers: [u8; 4],
+    /// ConfigMode of shoulder, elbow and wrist, and TurnMode (wire values).
+    pub config_modes: [u8; 3],
+    pub turn_mode: u8,
+    pub reserved2: [u8; 7],
 }
 
 impl MotionCommand {
@@ -175,6 +188,13 @@ impl MotionCommand {
             jerk_scale: 1.0,
             duration_s: 0.0,
             override_fraction: 1.0,
+            pose: [0.0; 6],
+            arm_config: 0,
+            turn_numbers: [0; 4],
+            // SAME configuration, FREE turns: the SRCI defaults.
+            config_modes: [1; 3],
+            turn_mode: 2,
+            reserved2: [0; 7],
         }
     }
 }

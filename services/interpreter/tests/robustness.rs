@@ -36,7 +36,9 @@ use shared_types::ipc::{
 };
 use shared_types::srci::message::{CommandHeader, ResponseHeader, execution_mode, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
-use shared_types::srci::tables::{PAYLOAD_LENGTHS, group_jog as gj, move_axes_absolute as maa};
+use shared_types::srci::tables::{
+    PAYLOAD_LENGTHS, group_jog as gj, move_axes_absolute as maa, move_direct_absolute as mda,
+};
 use shared_types::srci::telegram::{
     Control, FRAGMENT_HEADER_LEN, FragmentAction, FragmentHeader, MAX_TELEGRAM_LEN,
     MIN_TELEGRAM_LEN, PLC_HEADER_LEN, PlcHeader, ROBOT_HEADER_LEN, RobotHeader,
@@ -117,13 +119,44 @@ fn defined_message_state(s: u8) -> bool {
 /// arm is, so `joints_rad` is `None`).
 #[derive(Debug, Clone, Copy)]
 struct MoveRequest {
+    kind: MotionCommandKind,
     joints_rad: Option<[f64; AXES]>,
     aborting: bool,
 }
 
 impl MoveRequest {
     fn from_message(msg: &[u8]) -> Option<Self> {
-        Self::from_move_axes(msg).or_else(|| Self::from_jog(msg))
+        Self::from_move_axes(msg)
+            .or_else(|| Self::from_jog(msg))
+            .or_else(|| Self::from_move_direct(msg))
+    }
+
+    /// A complete MoveDirectAbsolute with mode 0 or 1, a finite pose and valid rates (the
+    /// joint target comes from inverse kinematics, so any is accepted).
+    fn from_move_direct(msg: &[u8]) -> Option<Self> {
+        let h = CommandHeader::decode(msg);
+        let r = PayloadReader::new(msg);
+        let rates = [
+            mda::request::VELOCITY_RATE,
+            mda::request::ACCELERATION_RATE,
+            mda::request::JERK_RATE,
+        ];
+        let asks = h.command_type == mda::TYPE
+            && matches!(
+                h.execution_mode,
+                execution_mode::SEQUENCE_PRIMARY | execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
+            )
+            && rates
+                .iter()
+                .all(|&f| matches!(r.u16(f), 0..=10_000 | 0xFFFF))
+            && mda::request::POSITION_X_RZ
+                .iter()
+                .all(|&f| r.f32(f).is_finite());
+        asks.then_some(Self {
+            kind: MotionCommandKind::MoveDirect,
+            joints_rad: None,
+            aborting: h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY,
+        })
     }
 
     fn from_jog(msg: &[u8]) -> Option<Self> {
@@ -143,6 +176,7 @@ impl MoveRequest {
             && directions
             && matches!(r.u16(gj::request::OVERRIDE), 1..=10_000 | 0xFFFF);
         asks.then_some(Self {
+            kind: MotionCommandKind::MoveAxes,
             joints_rad: None,
             aborting: false,
         })
@@ -183,6 +217,7 @@ impl MoveRequest {
             *q = f64::from(deg).to_radians();
         }
         Some(Self {
+            kind: MotionCommandKind::MoveAxes,
             joints_rad: Some(joints_rad),
             aborting: h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY,
         })
@@ -190,7 +225,8 @@ impl MoveRequest {
 
     /// Whether `c` moves where this request asks (to well within a micro-radian).
     fn is_asked_by(&self, c: &MotionCommand) -> bool {
-        self.aborting == c.aborting
+        self.kind as u8 == c.kind
+            && self.aborting == c.aborting
             && self.joints_rad.is_none_or(|joints| {
                 joints
                     .iter()
@@ -349,7 +385,10 @@ impl Harness {
             if c.job != 0 {
                 self.open_jobs.push(c.job);
             }
-            if kind == MotionCommandKind::MoveAxes {
+            if matches!(
+                kind,
+                MotionCommandKind::MoveAxes | MotionCommandKind::MoveDirect
+            ) {
                 let Some(i) = moves.iter().position(|m| m.is_asked_by(c)) else {
                     panic!(
                         "MoveAxes {c:?} without a valid MoveAxesAbsolute asking for it: {moves:?}"

@@ -15,8 +15,11 @@ use shared_types::srci::message::{code, state};
 
 use crate::events::EventLog;
 use crate::joint_move::{self, JointMove};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+
+use crate::kinematics::selection::{CartesianTarget, ConfigMode, ConfigModes, TurnMode, select};
 use crate::kinematics::turns::TurnNumbers;
-use crate::kinematics::{ArmGeometry, Kinematics};
+use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics, rotation_from_rpy};
 use crate::motion::{Dynamics, Motion, Phase};
 use crate::queue::MoveQueue;
 
@@ -214,6 +217,7 @@ impl Executor {
         let job = command.job;
         match MotionCommandKind::from_wire(command.kind) {
             Some(MotionCommandKind::MoveAxes) => self.accept_move(command, drive),
+            Some(MotionCommandKind::MoveDirect) => self.accept_move_direct(command, drive),
             Some(MotionCommandKind::Stop) => {
                 self.stop(code::ABORTED_BY_GROUP_STOP);
                 if let Some(previous) = self.pending_stop.replace(job) {
@@ -275,6 +279,54 @@ impl Executor {
             Ok(()) => self.report(job, state::BUFFERED, 0),
             Err(_) => self.report(job, state::ERROR, code::INTERNAL_ERROR),
         }
+    }
+
+    /// MoveDirectAbsolute: chooses the joint target of the Cartesian pose from where the move
+    /// will start (ConfigMode and TurnMode decide among the solutions), then it is a joint
+    /// move like MoveAxesAbsolute.
+    fn accept_move_direct(&mut self, command: &MotionCommand, drive: DriveState) {
+        let start = if command.aborting {
+            self.motion.point.q
+        } else {
+            self.sequence_end()
+        };
+        match self.joint_target(command, &start) {
+            Ok(joints) => {
+                let mut joint_move = *command;
+                joint_move.kind = MotionCommandKind::MoveAxes as u8;
+                joint_move.joints_rad = joints;
+                self.accept_move(&joint_move, drive);
+            }
+            Err(code) => self.report(command.job, state::ERROR, code),
+        }
+    }
+
+    /// The joint target (rad) of the Cartesian target of `command`, or the SRCI code why
+    /// there is none.
+    fn joint_target(
+        &self,
+        command: &MotionCommand,
+        start: &[f64; AXES],
+    ) -> Result<[f64; AXES], u16> {
+        let geometry = self.geometry.ok_or(code::TARGET_UNREACHABLE)?;
+        let [x, y, z, rx, ry, rz] = command.pose;
+        let modes = command.config_modes;
+        let target = CartesianTarget {
+            flange: Isometry3::from_parts(
+                Translation3::new(x, y, z),
+                UnitQuaternion::from_rotation_matrix(&rotation_from_rpy(rx, ry, rz)),
+            ),
+            config: ArmConfig::from_bits(command.arm_config),
+            turns: TurnNumbers::from_wire(command.turn_numbers),
+            config_modes: ConfigModes {
+                shoulder: ConfigMode::from_wire(modes[0])
+                    .ok_or(code::INVALID_CONFIG_MODE_SHOULDER)?,
+                elbow: ConfigMode::from_wire(modes[1]).ok_or(code::INVALID_CONFIG_MODE_ELBOW)?,
+                wrist: ConfigMode::from_wire(modes[2]).ok_or(code::INVALID_CONFIG_MODE_WRIST)?,
+            },
+            turn_mode: TurnMode::from_wire(command.turn_mode).ok_or(code::INVALID_TURN_MODE)?,
+        };
+        select(&geometry, &target, start, &self.dynamics.limits).map_err(|e| e.code())
     }
 
     /// Where the arm will stand when the primary sequence has been executed.

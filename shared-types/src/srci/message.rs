@@ -150,6 +150,8 @@ pub mod code {
     pub const SW_LIMIT_LOWER: u16 = 0x8C53;
     pub const SW_LIMIT_UPPER: u16 = 0x8C54;
     pub const INVALID_ACCELERATION_RATE: u16 = 0x8D01;
+    /// ConfigMode of the elbow invalid.
+    pub const INVALID_CONFIG_MODE_ELBOW: u16 = 0x8D05;
     pub const INVALID_BLENDING_MODE: u16 = 0x8D03;
     pub const INVALID_BLENDING_PARAMETER: u16 = 0x8D04;
     pub const INVALID_DECELERATION_RATE: u16 = 0x8D06;
@@ -163,9 +165,15 @@ pub mod code {
     pub const INVALID_LIFESIGN_TIMEOUT: u16 = 0x8D14;
     pub const INVALID_MODE: u16 = 0x8D21;
     pub const INVALID_OVERRIDE: u16 = 0x8D23;
+    /// Cartesian position invalid (not a number).
+    pub const INVALID_POSITION: u16 = 0x8D24;
     pub const INVALID_TIME: u16 = 0x8D34;
+    pub const INVALID_TURN_MODE: u16 = 0x8D37;
     pub const INVALID_TOOL_NO: u16 = 0x8D35;
     pub const INVALID_VELOCITY_RATE: u16 = 0x8D38;
+    /// ConfigMode of the shoulder / wrist invalid.
+    pub const INVALID_CONFIG_MODE_SHOULDER: u16 = 0x8D40;
+    pub const INVALID_CONFIG_MODE_WRIST: u16 = 0x8D41;
     pub const INVALID_STEP_MODE: u16 = 0x8D42;
     pub const TOOL_NOT_EXISTING: u16 = 0x8D69;
     pub const FRAME_NOT_EXISTING: u16 = 0x8D70;

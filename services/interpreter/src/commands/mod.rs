@@ -19,13 +19,14 @@ use crate::server::{Effects, Now, Server};
 
 /// Command types this interpreter implements; RCSupportedFunctions announces exactly these.
 /// ReadActualPositionCyclic has no command type and is not offered yet.
-pub const IMPLEMENTED: [u16; 24] = [
+pub const IMPLEMENTED: [u16; 25] = [
     t::read_robot_data::TYPE,
     t::exchange_configuration::TYPE,
     t::read_messages::TYPE,
     t::enable_robot::TYPE,
     t::group_reset::TYPE,
     t::move_axes_absolute::TYPE,
+    t::move_direct_absolute::TYPE,
     t::read_actual_position::TYPE,
     t::change_speed_override::TYPE,
     t::group_stop::TYPE,
@@ -108,6 +109,12 @@ pub fn describe(code: u16) -> &'static str {
         code::INVALID_BLENDING_MODE => "BlendingMode is not a defined value",
         code::BLENDING_MODE_NOT_SUPPORTED => "BlendingMode not supported yet (exact stop only)",
         code::INVALID_JOINT_POSITION => "joint position is not a finite number",
+        code::INVALID_POSITION => "Cartesian position is not a finite number",
+        code::TARGET_UNREACHABLE => "target unreachable in the requested configuration",
+        code::INVALID_TURN_MODE => "TurnMode is not a defined value",
+        code::INVALID_CONFIG_MODE_SHOULDER
+        | code::INVALID_CONFIG_MODE_ELBOW
+        | code::INVALID_CONFIG_MODE_WRIST => "ConfigMode is not a defined value",
         code::INVALID_OVERRIDE => "Override out of range 0..100 %",
         code::JOG_DURING_MOTION => "jog not possible during an active movement",
         code::JOG_BOTH_DIRECTIONS => "positive and negative jog direction at the same time",
@@ -151,7 +158,7 @@ impl Server {
         }
         self.live.retain(|l| l.cmd_id != cmd_id);
         let mode_ok = match h.command_type {
-            t::move_axes_absolute::TYPE => matches!(
+            t::move_axes_absolute::TYPE | t::move_direct_absolute::TYPE => matches!(
                 h.execution_mode,
                 execution_mode::SEQUENCE_PRIMARY | execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
             ),
@@ -181,7 +188,9 @@ impl Server {
             t::enable_robot::TYPE => self.enable_robot(cmd_id, h, msg, now, fx),
             t::group_reset::TYPE => self.group_reset(cmd_id, h, now, fx),
             t::read_actual_position::TYPE => self.read_actual_position(cmd_id, h, msg, now),
-            t::move_axes_absolute::TYPE => self.move_axes_absolute(cmd_id, h, msg, now, fx),
+            t::move_axes_absolute::TYPE | t::move_direct_absolute::TYPE => {
+                self.move_command(cmd_id, h, msg, now, fx)
+            }
             t::change_speed_override::TYPE => self.change_speed_override(cmd_id, h, msg, now, fx),
             t::group_stop::TYPE => self.group_motion(cmd_id, h, MotionCommandKind::Stop, now, fx),
             t::group_interrupt::TYPE => {

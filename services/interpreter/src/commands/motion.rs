@@ -1,11 +1,12 @@
 //! Commands executed by the planner: MoveAxesAbsolute, ChangeSpeedOverride (and GroupReset's
 //! planner part), with their job updates and progress.
 
-use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind};
+use shared_types::ipc::{MotionCommand, MotionCommandKind};
 use shared_types::srci::message::{CommandHeader, Percent, code, execution_mode, state};
-use shared_types::srci::payload::{PayloadReader, PayloadWriter};
+use shared_types::srci::payload::{Field, PayloadReader, PayloadWriter};
 use shared_types::srci::tables::{
     change_speed_override as cso, group_reset as gr, group_stop as gs, move_axes_absolute as maa,
+    move_direct_absolute as mda,
 };
 
 use super::LiveKind;
@@ -28,8 +29,80 @@ fn rate(wire: u16, default: f64, invalid: u16) -> Result<f64, u16> {
     }
 }
 
-/// Checks a MoveAxesAbsolute request and turns it into a planner command; rates left at
-/// default take the default dynamics, targets must lie within the SW limits.
+/// Where the parameters every move command shares sit in its request table.
+struct MoveLayout {
+    velocity: Field,
+    acceleration: Field,
+    deceleration: Field,
+    jerk: Field,
+    tool: Field,
+    blending_mode: Field,
+    time: Field,
+}
+
+const MOVE_AXES: MoveLayout = MoveLayout {
+    velocity: maa::request::VELOCITY_RATE,
+    acceleration: maa::request::ACCELERATION_RATE,
+    deceleration: maa::request::DECELERATION_RATE,
+    jerk: maa::request::JERK_RATE,
+    tool: maa::request::TOOL_NO,
+    blending_mode: maa::request::BLENDING_MODE,
+    time: maa::request::TIME,
+};
+
+const MOVE_DIRECT: MoveLayout = MoveLayout {
+    velocity: mda::request::VELOCITY_RATE,
+    acceleration: mda::request::ACCELERATION_RATE,
+    deceleration: mda::request::DECELERATION_RATE,
+    jerk: mda::request::JERK_RATE,
+    tool: mda::request::TOOL_NO,
+    blending_mode: mda::request::BLENDING_MODE,
+    time: mda::request::TIME,
+};
+
+/// Checks what every move shares (rates, tool, blending, time, execution mode) and returns a
+/// planner command of `kind` with them; rates left at default take the default dynamics.
+fn decode_move(
+    r: &PayloadReader<'_>,
+    layout: &MoveLayout,
+    h: CommandHeader,
+    kind: MotionCommandKind,
+    defaults: DefaultRates,
+) -> Result<MotionCommand, u16> {
+    let velocity = rate(
+        r.u16(layout.velocity),
+        defaults.velocity,
+        code::INVALID_VELOCITY_RATE,
+    )?;
+    let acceleration = rate(
+        r.u16(layout.acceleration),
+        defaults.acceleration,
+        code::INVALID_ACCELERATION_RATE,
+    )?;
+    if r.u16(layout.deceleration) != 0xFFFF {
+        return Err(code::DECELERATION_RATE_NOT_SUPPORTED);
+    }
+    let jerk = rate(r.u16(layout.jerk), defaults.jerk, code::INVALID_JERK_RATE)?;
+    let tool = r.u8(layout.tool);
+    if tool != 0 && tool != CURRENT_INDEX {
+        return Err(code::TOOL_NOT_EXISTING);
+    }
+    match r.u8(layout.blending_mode) {
+        0 => {}
+        2 | 3 | 4 | 10 | 11 | 12 => return Err(code::BLENDING_MODE_NOT_SUPPORTED),
+        _ => return Err(code::INVALID_BLENDING_MODE),
+    }
+    let mut c = MotionCommand::new(kind);
+    c.aborting = h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY;
+    c.velocity_scale = velocity;
+    c.acceleration_scale = acceleration;
+    c.jerk_scale = jerk;
+    c.duration_s = f64::from(r.u16(layout.time)) / 1000.0;
+    Ok(c)
+}
+
+/// Checks a MoveAxesAbsolute request and turns it into a planner command; targets must lie
+/// within the SW limits.
 fn decode_move_axes(
     msg: &[u8],
     h: CommandHeader,
@@ -37,36 +110,13 @@ fn decode_move_axes(
     limits: SwLimitsRad,
 ) -> Result<MotionCommand, u16> {
     let r = PayloadReader::new(msg);
-    let velocity = rate(
-        r.u16(maa::request::VELOCITY_RATE),
-        defaults.velocity,
-        code::INVALID_VELOCITY_RATE,
-    )?;
-    let acceleration = rate(
-        r.u16(maa::request::ACCELERATION_RATE),
-        defaults.acceleration,
-        code::INVALID_ACCELERATION_RATE,
-    )?;
-    if r.u16(maa::request::DECELERATION_RATE) != 0xFFFF {
-        return Err(code::DECELERATION_RATE_NOT_SUPPORTED);
-    }
-    let jerk = rate(
-        r.u16(maa::request::JERK_RATE),
-        defaults.jerk,
-        code::INVALID_JERK_RATE,
-    )?;
-    let tool = r.u8(maa::request::TOOL_NO);
-    if tool != 0 && tool != CURRENT_INDEX {
-        return Err(code::TOOL_NOT_EXISTING);
-    }
-    match r.u8(maa::request::BLENDING_MODE) {
-        0 => {}
-        2 | 3 | 4 | 10 | 11 | 12 => return Err(code::BLENDING_MODE_NOT_SUPPORTED),
-        _ => return Err(code::INVALID_BLENDING_MODE),
-    }
-    let fields = maa::request::JOINT_POSITION_J1_J6;
-    let mut joints = [0.0; AXES];
-    for (i, (q, f)) in joints.iter_mut().zip(fields).enumerate() {
+    let mut c = decode_move(&r, &MOVE_AXES, h, MotionCommandKind::MoveAxes, defaults)?;
+    for (i, (q, f)) in c
+        .joints_rad
+        .iter_mut()
+        .zip(maa::request::JOINT_POSITION_J1_J6)
+        .enumerate()
+    {
         let deg = r.f32(f);
         if !deg.is_finite() {
             return Err(code::INVALID_JOINT_POSITION);
@@ -81,18 +131,69 @@ fn decode_move_axes(
             return Err(code::SW_LIMIT_UPPER);
         }
     }
-    let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
-    c.aborting = h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY;
-    c.joints_rad = joints;
-    c.velocity_scale = velocity;
-    c.acceleration_scale = acceleration;
-    c.jerk_scale = jerk;
-    c.duration_s = f64::from(r.u16(maa::request::TIME)) / 1000.0;
     Ok(c)
 }
 
+/// Checks a MoveDirectAbsolute request and turns it into a planner command: the flange pose
+/// in m and rad, with the configuration, turns and their modes (the planner solves the IK).
+fn decode_move_direct(
+    msg: &[u8],
+    h: CommandHeader,
+    defaults: DefaultRates,
+) -> Result<MotionCommand, u16> {
+    let r = PayloadReader::new(msg);
+    let mut c = decode_move(&r, &MOVE_DIRECT, h, MotionCommandKind::MoveDirect, defaults)?;
+    let frame = r.u8(mda::request::FRAME_NO);
+    if frame != 0 && frame != CURRENT_INDEX {
+        return Err(code::FRAME_NOT_EXISTING);
+    }
+    for (i, (v, f)) in c
+        .pose
+        .iter_mut()
+        .zip(mda::request::POSITION_X_RZ)
+        .enumerate()
+    {
+        let wire = f64::from(r.f32(f));
+        if !wire.is_finite() {
+            return Err(code::INVALID_POSITION);
+        }
+        *v = if i < 3 {
+            wire / 1000.0
+        } else {
+            wire.to_radians()
+        };
+    }
+    c.arm_config = r.u8(mda::request::SHOULDER)
+        | r.u8(mda::request::ELBOW) << 1
+        | r.u8(mda::request::WRIST) << 2;
+    c.turn_numbers = core::array::from_fn(|i| r.u8(mda::request::POSITION_TURN_NUMBER.element(i)));
+    let modes = [
+        r.u8(mda::request::CONFIG_MODE.element(0)),
+        r.u8(mda::request::CONFIG_MODE.element(1)),
+    ];
+    // [0] low nibble shoulder, high nibble elbow; [1] low nibble wrist. The planner rejects
+    // undefined values with their codes.
+    c.config_modes = [modes[0] & 0x0F, modes[0] >> 4, modes[1] & 0x0F];
+    c.turn_mode = r.u8(mda::request::TURN_MODE);
+    Ok(c)
+}
+
+/// Progress (percent × 100) of a MoveAxesAbsolute or MoveDirectAbsolute response; the
+/// latter also carries RemainingDistance, which joint-interpolated moves do not track:
+/// -1 means "no valid value", 0 "target reached".
+fn write_progress(w: &mut PayloadWriter<'_>, command_type: u16, progress: u16) {
+    if command_type == mda::TYPE {
+        w.set_u16(mda::response::PROGRESS, progress);
+        let remaining = if progress == 10_000 { 0.0 } else { -1.0 };
+        w.set_f32(mda::response::REMAINING_DISTANCE, remaining);
+    } else {
+        w.set_u16(maa::response::PROGRESS, progress);
+    }
+}
+
 impl Server {
-    pub(crate) fn move_axes_absolute(
+    /// MoveAxesAbsolute and MoveDirectAbsolute: checked, then handed to the planner.
+    pub(crate) fn move_command(
         &mut self,
         cmd_id: u16,
         h: CommandHeader,
@@ -100,17 +201,15 @@ impl Server {
         now: Now,
         fx: &mut Effects,
     ) {
+        let defaults = self.user_data.default_rates();
         let checked = if self.error_pending {
             Err(code::DISABLED_DUE_TO_ERROR)
         } else if !self.drives_enabled() {
             Err(code::ROBOT_DISABLED)
+        } else if h.command_type == mda::TYPE {
+            decode_move_direct(msg, h, defaults)
         } else {
-            decode_move_axes(
-                msg,
-                h,
-                self.user_data.default_rates(),
-                self.user_data.sw_limits_rad(),
-            )
+            decode_move_axes(msg, h, defaults, self.user_data.sw_limits_rad())
         };
         match checked {
             Ok(command) => self.submit_job(cmd_id, h, command, now, fx),
@@ -230,7 +329,7 @@ impl Server {
         self.respond(u.cmd_id, h, u.state, u.code, now, |b| {
             let mut w = PayloadWriter::new(b);
             match command_type {
-                maa::TYPE => w.set_u16(maa::response::PROGRESS, progress),
+                maa::TYPE | mda::TYPE => write_progress(&mut w, command_type, progress),
                 gs::TYPE => w.set_i8(gs::response::ABORTED_SEQUENCE, aborted_sequence),
                 _ => {}
             }
@@ -274,9 +373,10 @@ impl Server {
         };
         let cmd_id = self.live[i].cmd_id;
         let h = self.live_header(i);
-        if self.live[i].command_type == maa::TYPE {
+        let command_type = self.live[i].command_type;
+        if matches!(command_type, maa::TYPE | mda::TYPE) {
             self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
-                PayloadWriter::new(b).set_u16(maa::response::PROGRESS, now_progress);
+                write_progress(&mut PayloadWriter::new(b), command_type, now_progress);
             });
         }
     }
@@ -306,8 +406,8 @@ mod tests {
             jerk: 100.0,
         };
         let limits = SwLimitsRad {
-            lower: [-3.0; AXES],
-            upper: [3.0; AXES],
+            lower: [-3.0; 6],
+            upper: [3.0; 6],
         };
         decode_move_axes(msg, h, defaults, limits)
     }

@@ -445,6 +445,46 @@ fn the_status_carries_configuration_bits_and_turn_numbers() {
 }
 
 #[test]
+fn a_direct_move_goes_to_the_joints_of_its_cartesian_target() {
+    use crate::kinematics::turns::TurnNumbers;
+    use crate::kinematics::{ArmGeometry, Kinematics};
+    let cfg = config();
+    let target = target_a();
+    let geometry = ArmGeometry::new(&cfg.robot.kinematics).unwrap();
+    let mut rig = Rig::new();
+    let mut c = rig.command(MotionCommandKind::MoveDirect, 1);
+    c.pose = Kinematics::new(&cfg.robot.kinematics).flange_pose(&target);
+    // USE_CONFIG with the target's configuration bits and turn numbers.
+    c.arm_config = geometry.arm_config(&target).bits();
+    c.turn_numbers = TurnNumbers::of_joints(&target).unwrap().to_wire().unwrap();
+    c.config_modes = [0; 3];
+    c.turn_mode = 0;
+    rig.step(&[c]);
+    rig.run_until(20_000, |r| r.is_final(1));
+    assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
+    for (q, t) in rig.feedback.q.iter().zip(target) {
+        assert!((q - t).abs() < 1e-6, "{:?} vs {target:?}", rig.feedback.q);
+    }
+    rig.check_limits();
+
+    let mut far = rig.command(MotionCommandKind::MoveDirect, 2);
+    far.pose = [5.0, 0.0, 0.5, 0.0, 0.0, 0.0];
+    rig.step(&[far]);
+    assert_eq!(
+        rig.final_state(2),
+        Some((state::ERROR, code::TARGET_UNREACHABLE))
+    );
+    let mut bad = rig.command(MotionCommandKind::MoveDirect, 3);
+    bad.pose = c.pose;
+    bad.config_modes = [9, 1, 1];
+    rig.step(&[bad]);
+    assert_eq!(
+        rig.final_state(3),
+        Some((state::ERROR, code::INVALID_CONFIG_MODE_SHOULDER))
+    );
+}
+
+#[test]
 fn stop_of_a_standing_arm_is_done_at_once() {
     let mut rig = Rig::new();
     let stop = rig.command(MotionCommandKind::Stop, 9);
