@@ -2,6 +2,11 @@
 
 use shared_types::ipc::{MotionCommand, MotionCommandKind};
 
+/// The primary sequence holds as many moves as it may.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("the primary sequence is full")]
+pub struct QueueFull;
+
 /// Buffered MoveAxes commands in execution order.
 #[derive(Debug)]
 pub struct MoveQueue {
@@ -35,10 +40,10 @@ impl MoveQueue {
         self.len == 0
     }
 
-    /// Appends `command`; gives it back when the queue is full.
-    pub fn push(&mut self, command: MotionCommand) -> Result<(), MotionCommand> {
+    /// Appends `command`, unless the queue is full.
+    pub fn push(&mut self, command: MotionCommand) -> Result<(), QueueFull> {
         if self.len >= self.limit {
-            return Err(command);
+            return Err(QueueFull);
         }
         let tail = (self.head + self.len) % self.slots.len();
         self.slots[tail] = command;
@@ -48,9 +53,9 @@ impl MoveQueue {
 
     /// Puts an interrupted move back at the front, to run again on continue. There is always
     /// room for the one move that was running.
-    pub fn push_front(&mut self, command: MotionCommand) -> Result<(), MotionCommand> {
+    pub fn push_front(&mut self, command: MotionCommand) -> Result<(), QueueFull> {
         if self.len == self.slots.len() {
-            return Err(command);
+            return Err(QueueFull);
         }
         self.head = (self.head + self.slots.len() - 1) % self.slots.len();
         self.slots[self.head] = command;
