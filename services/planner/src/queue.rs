@@ -112,7 +112,7 @@ mod tests {
             for i in 0..3 {
                 assert!(q.push(job(base + i)).is_ok());
             }
-            assert_eq!(q.push(job(99)).unwrap_err().job, 99);
+            assert_eq!(q.push(job(99)), Err(QueueFull));
             assert_eq!(q.get(1).map(|c| c.job), Some(base + 1));
             assert_eq!(q.back().map(|c| c.job), Some(base + 2));
             for i in 0..3 {
