@@ -473,3 +473,122 @@ fn tool_data_is_stored_and_survives_a_restart() {
     assert_eq!(r.u8(rtd::response::TOOL_NO), 3);
     let _ = std::fs::remove_dir_all(&data);
 }
+
+#[test]
+fn move_direct_absolute_reaches_the_joints_of_a_taught_pose() {
+    use shared_types::srci::payload::PayloadWriter;
+    use shared_types::srci::tables::move_direct_absolute as mda;
+    let c = Controller::start("direct");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    // Teach: move to joints, read the pose with its configuration and turns.
+    let taught = [25.0, 100.0, 70.0, 100.0, -70.0, 200.0];
+    assert!(move_to(&mut plc, taught, 100.0) < 0.01);
+    let read = execute(
+        &mut plc,
+        &Request::ReadActualPosition { tool: 0, frame: 0 },
+        Duration::from_secs(5),
+    );
+    let pose = plc_client::response::ActualPosition::decode(&read.response).cartesian;
+    let config = read.response[34];
+    let turns = [
+        read.response[36],
+        read.response[37],
+        read.response[38],
+        read.response[39],
+    ];
+    assert!(move_to(&mut plc, HOME, 100.0) < 0.01);
+
+    let mut msg = vec![0u8; mda::request::LEN];
+    {
+        let mut w = PayloadWriter::new(&mut msg);
+        for f in [
+            mda::request::VELOCITY_RATE,
+            mda::request::ACCELERATION_RATE,
+            mda::request::DECELERATION_RATE,
+            mda::request::JERK_RATE,
+        ] {
+            w.set_u16(f, 0xFFFF);
+        }
+        for (f, v) in mda::request::POSITION_X_RZ.into_iter().zip(pose) {
+            w.set_f32(f, v as f32);
+        }
+        w.set_u8(mda::request::SHOULDER, config & 1);
+        w.set_u8(mda::request::ELBOW, (config >> 1) & 1);
+        w.set_u8(mda::request::WRIST, (config >> 2) & 1);
+        w.set_bytes(mda::request::POSITION_TURN_NUMBER, &turns);
+        // ConfigMode USE_CONFIG for all three, TurnMode USE_TURN_NUMBER.
+        w.set_bytes(mda::request::CONFIG_MODE, &[0x00, 0x00]);
+        w.set_u8(mda::request::TURN_MODE, 0);
+    }
+    let s = execute(
+        &mut plc,
+        &Request::Raw {
+            command_type: mda::TYPE,
+            execution_mode: 0,
+            payload: msg[4..].to_vec(),
+        },
+        Duration::from_secs(15),
+    );
+    assert_eq!(
+        (s.state, s.code),
+        (state::DONE, 0),
+        "MoveDirectAbsolute: {s:?}"
+    );
+    let reached = actual_joints(&mut plc);
+    // The pose travels as REAL (f32), so the joints agree to a few thousandths of a degree.
+    assert!(
+        max_deviation(reached, taught) < 0.01,
+        "{reached:?} vs {taught:?}"
+    );
+
+    msg[mda::request::POSITION_X.offset..mda::request::POSITION_X.offset + 4]
+        .copy_from_slice(&5000f32.to_be_bytes());
+    let far = execute(
+        &mut plc,
+        &Request::Raw {
+            command_type: mda::TYPE,
+            execution_mode: 0,
+            payload: msg[4..].to_vec(),
+        },
+        Duration::from_secs(5),
+    );
+    assert_eq!(
+        (far.state, far.code),
+        (state::ERROR, code::TARGET_UNREACHABLE),
+        "{far:?}"
+    );
+}
+
+#[test]
+fn a_restarted_servo_keeps_the_arm_where_it_stood_and_needs_a_new_enable() {
+    let c = Controller::start("servo");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    let parked = [30.0, 95.0, 80.0, 85.0, -85.0, 40.0];
+    assert!(move_to(&mut plc, parked, 100.0) < 0.01);
+    // The position memory is written every 100 ms.
+    plc.run_for(Duration::from_millis(300)).expect("cycles");
+    let servo = c.pid_of("servo").expect("servo pid");
+    // SAFETY: kill(2) on the servo process of our own controller.
+    assert_eq!(unsafe { libc::kill(servo as i32, libc::SIGKILL) }, 0);
+    let restarted = Instant::now();
+    while c.pid_of("servo").is_none_or(|p| p == servo) {
+        assert!(
+            restarted.elapsed() < Duration::from_secs(10),
+            "servo restarted"
+        );
+        plc.run_for(Duration::from_millis(50)).expect("cycles");
+    }
+    plc.run_for(Duration::from_millis(700)).expect("cycles");
+    assert!(!plc.task().is_enabled(), "drives stay off after a restart");
+    let here = actual_joints(&mut plc);
+    assert!(
+        max_deviation(here, parked) < 0.01,
+        "the arm did not jump: {here:?}"
+    );
+    reset_and_enable(&mut plc);
+    assert!(move_to(&mut plc, HOME, 100.0) < 0.01);
+}

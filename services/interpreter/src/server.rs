@@ -302,6 +302,26 @@ impl Server {
 
     /// A new drive feedback.
     pub fn on_servo_feedback(&mut self, now: Now, feedback: &ServoFeedback, fx: &mut Effects) {
+        let restarted = self
+            .feedback
+            .is_some_and(|f| f.instance != feedback.instance);
+        if restarted {
+            // Like a drive fault: the restarted drives stay off until the PLC resets the
+            // error and enables again; the standing power request is withdrawn at once.
+            self.error_pending = true;
+            self.servo_control.seq += 1;
+            self.servo_control.power = false;
+            self.servo_control.enable = false;
+            fx.servo = Some(self.servo_control);
+            self.raise(
+                now,
+                MessageType::Arm,
+                severity::ERROR,
+                code::MOTION_ERROR,
+                "drive process restarted: drives off, GroupReset and EnableRobot required",
+            );
+            self.end_enable_robot(now, code::DISABLED_DUE_TO_ERROR);
+        }
         if feedback.fault_code != 0 && feedback.fault_code != self.last_drive_fault {
             self.error_pending = true;
             self.raise(

@@ -4,7 +4,9 @@
 
 pub mod clock;
 pub mod drives;
+pub mod position_memory;
 
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use shared_types::bus::{Bus, BusError, publish, receive_latest};
@@ -14,6 +16,7 @@ use shared_types::throttle::WarnThrottle;
 
 use clock::{ClockError, PeriodicClock, monotonic_ns};
 use drives::{Cause, DriveParams, DriveStatus, SimulatedDrives, Transition};
+use position_memory::SharedPosition;
 
 /// At most one overrun log line per this interval (each overrun is counted in the feedback).
 const OVERRUN_LOG_INTERVAL_NS: u64 = 10_000_000_000;
@@ -27,6 +30,8 @@ pub enum ServoError {
     Clock(#[from] ClockError),
     #[error("wake-up notification on '{topic}' failed: {detail}")]
     Notify { topic: &'static str, detail: String },
+    #[error("servo position memory in {dir}: {source}")]
+    PositionMemory { dir: String, source: std::io::Error },
 }
 
 /// Runs the servo loop until `shutdown` becomes true (returns within one period).
@@ -40,8 +45,21 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
 
     let instance = process_instance();
     let period_ns = config.main.servo.period_us.saturating_mul(1000);
-    let home = config.robot.home_deg.map(f64::to_radians);
-    let mut drives = SimulatedDrives::new(DriveParams::from_config(config), home);
+    // The arm stays where it stopped: a restarted servo process (or controller) continues
+    // from the stored position, never from home, so the simulated joints never jump.
+    let data_dir = config.main.data_dir();
+    let previous = position_memory::load(&data_dir);
+    let start = previous.unwrap_or_else(|| config.robot.home_deg.map(f64::to_radians));
+    let position = Arc::new(SharedPosition::default());
+    position.store(&start);
+    let stop_writer = Arc::new(AtomicBool::new(false));
+    let writer =
+        position_memory::spawn_writer(data_dir.clone(), position.clone(), stop_writer.clone())
+            .map_err(|source| ServoError::PositionMemory {
+                dir: data_dir.display().to_string(),
+                source,
+            })?;
+    let mut drives = SimulatedDrives::new(DriveParams::from_config(config), start);
     let mut control = ServoControl::default();
     let mut setpoint: Option<ServoSetpoint> = None;
     let mut clock = PeriodicClock::start(period_ns)?;
@@ -49,6 +67,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
         instance,
         period_us = config.main.servo.period_us,
         robot = %config.robot.name,
+        restored = previous.is_some(),
         "servo started, drives off"
     );
 
@@ -77,6 +96,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
             log_transition(tick, t, &report.status);
         }
         let s = &report.status;
+        position.store(&s.q);
         let feedback = ServoFeedback {
             instance,
             tick,
@@ -100,6 +120,10 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
         tick += 1;
     }
     tracing::info!(tick, overruns = clock.overruns(), "servo stopped");
+    stop_writer.store(true, Ordering::Relaxed);
+    writer.thread().unpark();
+    // The writer stores the final position before it ends.
+    let _ = writer.join();
     Ok(())
 }
 

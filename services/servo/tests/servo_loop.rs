@@ -17,6 +17,10 @@ use shared_types::ipc::{
 fn powers_up_follows_setpoints_stops_when_they_end_and_shuts_down() {
     let mut cfg = Config::load(None).expect("embedded config");
     cfg.main.instance = format!("servo{}", std::process::id());
+    cfg.main.interpreter.data_dir = std::env::temp_dir()
+        .join(format!("rc-servo-loop-{}", std::process::id()))
+        .display()
+        .to_string();
     cfg.main.servo.power_on_delay_ms = 5;
     cfg.main.servo.enable_delay_ms = 5;
     let home = cfg.robot.home_deg.map(f64::to_radians);

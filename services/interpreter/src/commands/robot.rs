@@ -128,6 +128,19 @@ impl Server {
         }
     }
 
+    /// Ends a live EnableRobot with ERROR `code`: the drives were switched off by a fault.
+    pub(crate) fn end_enable_robot(&mut self, now: Now, code: u16) {
+        if let Some(i) = self
+            .live
+            .iter()
+            .position(|l| matches!(l.kind, LiveKind::Enable { .. }))
+        {
+            let cmd_id = self.live[i].cmd_id;
+            let h = self.live_header(i);
+            self.respond(cmd_id, h, state::ERROR, code, now, |_| {});
+        }
+    }
+
     fn set_enable_reported(&mut self, i: usize, value: bool) {
         if let LiveKind::Enable {
             reported, reached, ..
