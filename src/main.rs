@@ -2,8 +2,11 @@
 //! - `rc run` starts the orchestrator, which spawns and supervises the services;
 //! - `rc service <name>` is one service process (spawned by `rc run`, or by systemd);
 //! - `rc plc PROGRAM.toml` plays the PLC: runs an SRCI program against a running controller;
-//! - `rc demo` starts a controller, runs the embedded demo program against it and stops it.
+//! - `rc demo` starts a controller, runs the embedded demo program against it and stops it;
+//! - `rc bench latency` measures the controller's latencies on this machine.
 
+mod bench;
+mod controller;
 mod demo;
 mod plc;
 
@@ -68,6 +71,11 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
     },
+    /// Measures the controller on this machine (starts and stops one of its own).
+    Bench {
+        #[command(subcommand)]
+        benchmark: bench::Benchmark,
+    },
 }
 
 fn service_parser() -> impl TypedValueParser<Value = Service> {
@@ -114,6 +122,12 @@ fn main() -> ExitCode {
         Command::Demo { config } => {
             init_logging("warn");
             with_config(config.as_deref(), demo::run)
+        }
+        Command::Bench {
+            benchmark: bench::Benchmark::Latency { cycles, config },
+        } => {
+            init_logging("warn");
+            with_config(config.as_deref(), |config| bench::latency(config, cycles))
         }
     };
     match outcome {

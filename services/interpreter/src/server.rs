@@ -48,6 +48,29 @@ pub struct Settings {
     pub enable_timeout_ms: u64,
 }
 
+impl Settings {
+    /// The settings of `config` (validated at load time).
+    pub fn from_config(config: &shared_types::config::Config) -> Self {
+        let m = &config.main;
+        Self {
+            length_plc_to_rob: usize::from(m.fieldbus.telegram_length_plc_to_rob),
+            length_rob_to_plc: usize::from(m.fieldbus.telegram_length_rob_to_plc),
+            acr_length: usize::from(m.interpreter.acr_length),
+            lifesign_timeout_ms: m.interpreter.lifesign_timeout_ms,
+            message_capacity: usize::from(m.interpreter.message_capacity),
+            initial_override_percent: m.interpreter.initial_override_percent,
+            planner_timeout_ms: m.interpreter.planner_timeout_ms,
+            manufacturer: m.interpreter.manufacturer.clone(),
+            serial_number: m.interpreter.serial_number.clone(),
+            robot_name: config.robot.name.clone(),
+            limits: config.robot.limits_rad(),
+            // At least 1 ms; config keeps the period at or below 8 ms.
+            cycle_time_ms: m.servo.period_us.div_ceil(1000).max(1) as u16,
+            enable_timeout_ms: m.servo.power_on_delay_ms + m.servo.enable_delay_ms + 5_000,
+        }
+    }
+}
+
 /// The time of a call: monotonic for supervision, wall clock for message stamps.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Now {

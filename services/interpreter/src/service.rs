@@ -31,26 +31,6 @@ const TELEGRAMS_PER_PASS: usize = 16;
 /// sees the topic's history only once the publisher sends again) gets it back.
 const CONTROL_REPUBLISH_MS: u64 = 100;
 
-fn settings(config: &Config) -> Settings {
-    let m = &config.main;
-    Settings {
-        length_plc_to_rob: usize::from(m.fieldbus.telegram_length_plc_to_rob),
-        length_rob_to_plc: usize::from(m.fieldbus.telegram_length_rob_to_plc),
-        acr_length: usize::from(m.interpreter.acr_length),
-        lifesign_timeout_ms: m.interpreter.lifesign_timeout_ms,
-        message_capacity: usize::from(m.interpreter.message_capacity),
-        initial_override_percent: m.interpreter.initial_override_percent,
-        planner_timeout_ms: m.interpreter.planner_timeout_ms,
-        manufacturer: m.interpreter.manufacturer.clone(),
-        serial_number: m.interpreter.serial_number.clone(),
-        robot_name: config.robot.name.clone(),
-        limits: config.robot.limits_rad(),
-        // At least 1 ms; config keeps the period at or below 8 ms.
-        cycle_time_ms: m.servo.period_us.div_ceil(1000).max(1) as u16,
-        enable_timeout_ms: m.servo.power_on_delay_ms + m.servo.enable_delay_ms + 5_000,
-    }
-}
-
 fn now() -> Now {
     Now {
         mono_ms: shared_types::time::monotonic_ns() / 1_000_000,
@@ -80,7 +60,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
             source,
         }
     })?;
-    let mut server = Server::new(settings(config), issuer, user_data);
+    let mut server = Server::new(Settings::from_config(config), issuer, user_data);
     for w in warnings {
         tracing::warn!(%w, "user data");
         let mut text = [0u8; 150];
