@@ -23,9 +23,6 @@ const MOVE_MS: u64 = 200;
 const PLANNER_INSTANCE: u64 = 1;
 const SERVO_INSTANCE: u64 = 1;
 
-/// The server's settings from the controller's configuration, as the interpreter process
-/// derives them.
-
 /// A planner that acknowledges every command at once, starts a move's job at once and ends
 /// it DONE after [`MOVE_MS`], and ends every other job DONE at once.
 #[derive(Debug)]
