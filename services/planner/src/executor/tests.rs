@@ -61,6 +61,13 @@ impl Rig {
         c
     }
 
+    /// Sends ChangeSpeedOverride `fraction` as job `job` and steps once.
+    fn set_override(&mut self, job: u32, fraction: f64) {
+        let mut c = self.command(MotionCommandKind::Override, job);
+        c.override_fraction = fraction;
+        self.step(&[c]);
+    }
+
     fn move_to(&mut self, job: u32, target: [f64; AXES]) -> MotionCommand {
         let mut c = self.command(MotionCommandKind::MoveAxes, job);
         c.joints_rad = target;
@@ -283,15 +290,11 @@ fn override_changes_keep_the_path_and_the_limits() {
     let c = rig.move_to(1, target);
     rig.step(&[c]);
     rig.run_until(10_000, |r| r.executor.status().active_progress > 30.0);
-    let mut slow = rig.command(MotionCommandKind::Override, 2);
-    slow.override_fraction = 0.3;
-    rig.step(&[slow]);
+    rig.set_override(2, 0.3);
     assert_eq!(rig.final_state(2), Some((state::DONE, 0)));
     assert_eq!(rig.executor.status().override_fraction, 0.3);
     rig.run_until(10_000, |r| r.executor.status().active_progress > 60.0);
-    let mut fast = rig.command(MotionCommandKind::Override, 3);
-    fast.override_fraction = 1.0;
-    rig.step(&[fast]);
+    rig.set_override(3, 1.0);
     rig.run_until(10_000, |r| r.is_final(1));
     assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
     assert_eq!(rig.feedback.q, target);
@@ -309,9 +312,7 @@ fn override_zero_halts_on_the_path_and_the_move_stays_active() {
     let c = rig.move_to(1, target);
     rig.step(&[c]);
     rig.run_until(10_000, |r| r.executor.status().active_progress > 5.0);
-    let mut halt = rig.command(MotionCommandKind::Override, 2);
-    halt.override_fraction = 0.0;
-    rig.step(&[halt]);
+    rig.set_override(2, 0.0);
     rig.run_until(10_000, |r| !r.executor.status().moving);
     let held = rig.feedback.q;
     for _ in 0..500 {
@@ -325,9 +326,7 @@ fn override_zero_halts_on_the_path_and_the_move_stays_active() {
         rig.states_of(1),
         vec![(state::BUFFERED, 0), (state::ACTIVE, 0)]
     );
-    let mut resume = rig.command(MotionCommandKind::Override, 3);
-    resume.override_fraction = 1.0;
-    rig.step(&[resume]);
+    rig.set_override(3, 1.0);
     rig.run_until(10_000, |r| r.is_final(1));
     assert_eq!(rig.feedback.q, target);
     rig.check_limits();
