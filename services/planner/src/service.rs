@@ -50,6 +50,10 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), PlannerError> {
         queue_length = config.main.planner.queue_length,
         "planner started"
     );
+    if let Err(e) = crate::kinematics::ArmGeometry::new(&config.robot.kinematics) {
+        // Joint moves work with any DH table; Cartesian targets need the UR-type solver.
+        tracing::warn!(%e, "no inverse kinematics for this robot: Cartesian moves are refused");
+    }
 
     while !shutdown.load(Ordering::Relaxed) {
         shared_types::supervision::beat();
