@@ -1,6 +1,7 @@
 //! Types shared by every process of the rc controller: the iceoryx2 payloads and topics,
 //! the configuration, and the SRCI telegram codec.
 
+pub mod alloc_count;
 pub mod bus;
 pub mod config;
 pub mod ipc;

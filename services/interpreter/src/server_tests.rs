@@ -14,53 +14,10 @@ use shared_types::srci::telegram::{
 
 use super::*;
 
-/// Counts heap allocations of the current thread while `COUNTING` is set, so tests can show
-/// that the server core does not allocate per telegram.
-mod alloc_counter {
-    use std::alloc::{GlobalAlloc, Layout, System};
-    use std::cell::Cell;
-
-    pub struct Counting;
-
-    thread_local! {
-        static COUNTING: Cell<bool> = const { Cell::new(false) };
-        static COUNT: Cell<u64> = const { Cell::new(0) };
-    }
-
-    // SAFETY: delegates to the system allocator; only counts.
-    unsafe impl GlobalAlloc for Counting {
-        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-            if COUNTING.with(Cell::get) {
-                COUNT.with(|c| c.set(c.get() + 1));
-            }
-            // SAFETY: same contract as the caller's.
-            unsafe { System.alloc(layout) }
-        }
-        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-            // SAFETY: same contract as the caller's.
-            unsafe { System.dealloc(ptr, layout) }
-        }
-        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-            if COUNTING.with(Cell::get) {
-                COUNT.with(|c| c.set(c.get() + 1));
-            }
-            // SAFETY: same contract as the caller's.
-            unsafe { System.realloc(ptr, layout, new_size) }
-        }
-    }
-
-    /// Allocations made by `f` on this thread.
-    pub fn count<R>(f: impl FnOnce() -> R) -> (R, u64) {
-        COUNT.with(|c| c.set(0));
-        COUNTING.with(|c| c.set(true));
-        let r = f();
-        COUNTING.with(|c| c.set(false));
-        (r, COUNT.with(Cell::get))
-    }
-}
+use shared_types::alloc_count as alloc_counter;
 
 #[global_allocator]
-static ALLOCATOR: alloc_counter::Counting = alloc_counter::Counting;
+static ALLOCATOR: alloc_counter::CountingAllocator = alloc_counter::CountingAllocator;
 
 /// The factory user data of the embedded robot.
 fn user_data() -> crate::user_data::UserData {
