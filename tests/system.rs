@@ -569,7 +569,7 @@ fn a_restarted_servo_keeps_the_arm_where_it_stood_and_needs_a_new_enable() {
     reset_and_enable(&mut plc);
     let parked = [30.0, 95.0, 80.0, 85.0, -85.0, 40.0];
     assert!(move_to(&mut plc, parked, 100.0) < 0.01);
-    // The position memory is written every 100 ms.
+    // The position memory is written every 20 ms.
     plc.run_for(Duration::from_millis(300)).expect("cycles");
     let servo = c.pid_of("servo").expect("servo pid");
     // SAFETY: kill(2) on the servo process of our own controller.

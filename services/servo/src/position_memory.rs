@@ -13,8 +13,9 @@ use std::time::Duration;
 use shared_types::ipc::AXES;
 
 const FILE_NAME: &str = "servo_position.txt";
-/// How often the writer looks for a changed position.
-const WRITE_INTERVAL: Duration = Duration::from_millis(100);
+/// How often the writer looks for a changed position: a killed servo process loses at most
+/// this much of the simulated arm's motion.
+const WRITE_INTERVAL: Duration = Duration::from_millis(20);
 
 /// The last joint position (rad) shared between the tick loop and the writer thread.
 #[derive(Debug, Default)]
