@@ -9,6 +9,7 @@ mod bench;
 mod controller;
 mod demo;
 mod plc;
+mod status;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -71,6 +72,13 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
     },
+    /// Shows a running controller: pid, uptime and restarts of each service, and a one-second
+    /// sample of the servo tick and the planner.
+    Status {
+        /// The controller's configuration (default: the embedded config/default.toml).
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+    },
     /// Measures the controller on this machine (starts and stops one of its own).
     Bench {
         #[command(subcommand)]
@@ -122,6 +130,10 @@ fn main() -> ExitCode {
         Command::Demo { config } => {
             init_logging("warn");
             with_config(config.as_deref(), demo::run)
+        }
+        Command::Status { config } => {
+            init_logging("warn");
+            with_config(config.as_deref(), status::run)
         }
         Command::Bench {
             benchmark: bench::Benchmark::Latency { cycles, config },

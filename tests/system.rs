@@ -592,3 +592,33 @@ fn a_restarted_servo_keeps_the_arm_where_it_stood_and_needs_a_new_enable() {
     reset_and_enable(&mut plc);
     assert!(move_to(&mut plc, HOME, 100.0) < 0.01);
 }
+
+#[test]
+fn rc_status_shows_the_services_and_the_servo_tick() {
+    let c = Controller::start("status");
+    let config = c.dir.join("default.toml");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rc"))
+        .args(["status", "--config"])
+        .arg(&config)
+        .output()
+        .expect("rc status");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    for service in ["servo", "planner", "interpreter", "fieldbus"] {
+        let pid = c.pid_of(service).expect("pid").to_string();
+        assert!(
+            text.lines()
+                .any(|l| l.starts_with(service) && l.contains(&pid) && l.ends_with(" 0")),
+            "{service} with pid and 0 restarts in:\n{text}"
+        );
+    }
+    assert!(text.contains("period 1000 µs"), "{text}");
+    assert!(text.contains("planner: active job 0"), "{text}");
+    drop(c);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rc"))
+        .args(["status", "--config"])
+        .arg(&config)
+        .output()
+        .expect("rc status");
+    assert!(!out.status.success(), "not running any more");
+}

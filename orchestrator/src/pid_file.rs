@@ -1,7 +1,7 @@
 //! The pid file: which process runs which service right now.
 //!
 //! `<runtime dir>/<instance>.pids`, runtime dir = `$XDG_RUNTIME_DIR`, else `/tmp`. One line per
-//! running service, `<name> <pid>`, in start order. The orchestrator rewrites it after every
+//! running service, `<name> <pid> <restarts>`, in start order. The orchestrator rewrites it after every
 //! (re)spawn, atomically (a temporary file renamed over it, so a reader never sees half a
 //! file), and removes it on shutdown. Tools and tests use it to find, signal or watch the
 //! services of one controller instance.
@@ -27,24 +27,37 @@ pub fn pid_file_path(instance: &str) -> PathBuf {
     pid_file_path_in(runtime_dir.as_deref(), instance)
 }
 
-/// The text of the pid file for the running services.
-pub fn render(running: impl IntoIterator<Item = (Service, u32)>) -> String {
-    running
-        .into_iter()
-        .fold(String::new(), |mut text, (service, pid)| {
-            // Writing to a String cannot fail.
-            let _ = writeln!(text, "{service} {pid}");
-            text
-        })
+/// One line of the pid file: a running service, its process and how often it was restarted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PidEntry {
+    pub service: Service,
+    pub pid: u32,
+    pub restarts: u32,
 }
 
-/// Parses a pid file's text back into `(service, pid)` pairs; lines that are not of that shape
-/// are skipped.
-pub fn parse(text: &str) -> Vec<(Service, u32)> {
+/// The text of the pid file for the running services: `<name> <pid> <restarts>` per line.
+pub fn render(running: impl IntoIterator<Item = PidEntry>) -> String {
+    running.into_iter().fold(String::new(), |mut text, e| {
+        // Writing to a String cannot fail.
+        let _ = writeln!(text, "{} {} {}", e.service, e.pid, e.restarts);
+        text
+    })
+}
+
+/// Parses a pid file's text; lines that are not of that shape are skipped (a missing restart
+/// count reads as 0).
+pub fn parse(text: &str) -> Vec<PidEntry> {
     text.lines()
         .filter_map(|line| {
-            let (name, pid) = line.split_once(' ')?;
-            Some((name.parse().ok()?, pid.trim().parse().ok()?))
+            let mut fields = line.split_whitespace();
+            let service = fields.next()?.parse().ok()?;
+            let pid = fields.next()?.parse().ok()?;
+            let restarts = fields.next().map_or(Some(0), |r| r.parse().ok())?;
+            Some(PidEntry {
+                service,
+                pid,
+                restarts,
+            })
         })
         .collect()
 }
@@ -87,13 +100,21 @@ mod tests {
 
     #[test]
     fn render_and_parse_round_trip() {
-        let running = [(Service::Servo, 101), (Service::Fieldbus, 4242)];
+        let entry = |service, pid, restarts| PidEntry {
+            service,
+            pid,
+            restarts,
+        };
+        let running = [
+            entry(Service::Servo, 101, 0),
+            entry(Service::Fieldbus, 4242, 3),
+        ];
         let text = render(running);
-        assert_eq!(text, "servo 101\nfieldbus 4242\n");
+        assert_eq!(text, "servo 101 0\nfieldbus 4242 3\n");
         assert_eq!(parse(&text), running);
         assert_eq!(
             parse("garbage\nplanner x\nplanner 7\n"),
-            [(Service::Planner, 7)]
+            [entry(Service::Planner, 7, 0)]
         );
     }
 

@@ -204,10 +204,13 @@ where
     }
 
     fn write_pid_file(&self) -> Result<(), OrchestratorError> {
-        let running = self
-            .slots
-            .iter()
-            .filter_map(|slot| Some((slot.service, slot.process.as_ref()?.pid())));
+        let running = self.slots.iter().filter_map(|slot| {
+            Some(pid_file::PidEntry {
+                service: slot.service,
+                pid: slot.process.as_ref()?.pid(),
+                restarts: slot.restarts,
+            })
+        });
         pid_file::write(&self.pid_file, &pid_file::render(running)).map_err(|source| {
             OrchestratorError::PidFile {
                 path: self.pid_file.clone(),
@@ -300,13 +303,13 @@ mod tests {
         }
     }
 
-    fn pids(path: &Path) -> Option<Vec<(Service, u32)>> {
+    fn pids(path: &Path) -> Option<Vec<pid_file::PidEntry>> {
         let running = pid_file::parse(&std::fs::read_to_string(path).ok()?);
         (running.len() == Service::START_ORDER.len()).then_some(running)
     }
 
-    fn pid_of(running: &[(Service, u32)], service: Service) -> u32 {
-        running.iter().find(|(s, _)| *s == service).unwrap().1
+    fn pid_of(running: &[pid_file::PidEntry], service: Service) -> u32 {
+        running.iter().find(|e| e.service == service).unwrap().pid
     }
 
     fn alive(pid: u32) -> bool {
@@ -338,7 +341,7 @@ mod tests {
 
         let first = wait_for("all services in the pid file", || pids(&pid_path));
         assert_eq!(
-            first.iter().map(|(s, _)| *s).collect::<Vec<_>>(),
+            first.iter().map(|e| e.service).collect::<Vec<_>>(),
             Service::START_ORDER
         );
         let planner = pid_of(&first, Service::Planner);
@@ -350,11 +353,24 @@ mod tests {
         for service in [Service::Servo, Service::Interpreter, Service::Fieldbus] {
             assert_eq!(pid_of(&first, service), pid_of(&second, service));
         }
+        let restarts = |service| {
+            second
+                .iter()
+                .find(|e| e.service == service)
+                .unwrap()
+                .restarts
+        };
+        assert_eq!(
+            restarts(Service::Planner),
+            1,
+            "the pid file counts restarts"
+        );
+        assert_eq!(restarts(Service::Servo), 0);
 
         shutdown.store(true, Ordering::Relaxed);
         supervisor.join().unwrap().unwrap();
         assert!(!pid_path.exists(), "pid file left behind");
-        for (service, pid) in second {
+        for pid_file::PidEntry { service, pid, .. } in second {
             assert!(!alive(pid), "{service} (pid {pid}) still runs");
         }
     }
@@ -468,7 +484,7 @@ mod tests {
             }
         };
         let first = wait_for("servo, planner and interpreter", started(3));
-        assert_eq!(first.last().unwrap().0, Service::Interpreter);
+        assert_eq!(first.last().unwrap().service, Service::Interpreter);
         thread::sleep(Duration::from_millis(200));
         assert!(
             started(3)().is_some(),

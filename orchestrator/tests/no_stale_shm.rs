@@ -129,15 +129,15 @@ fn crashed_service_is_restarted_and_no_shared_memory_is_left() {
     let first = wait_for("the pid file", || pids_of(&pid_path));
     let planner = first
         .iter()
-        .find(|(s, _)| *s == Service::Planner)
+        .find(|e| e.service == Service::Planner)
         .unwrap()
-        .1;
+        .pid;
     // Let the planner open its ports before it "crashes".
     thread::sleep(Duration::from_millis(300));
     // SAFETY: plain syscall on a process of this test.
     unsafe { libc::kill(planner as libc::pid_t, libc::SIGKILL) };
     wait_for("the planner's restart", || {
-        pids_of(&pid_path).filter(|running| running.iter().all(|(_, pid)| *pid != planner))
+        pids_of(&pid_path).filter(|running| running.iter().all(|e| e.pid != planner))
     });
     thread::sleep(Duration::from_millis(300));
 

@@ -14,7 +14,7 @@ mod private_controller;
 mod processing;
 mod rig;
 mod servo_watch;
-mod stats;
+pub(crate) mod stats;
 mod table;
 mod workload;
 

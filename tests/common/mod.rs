@@ -99,9 +99,12 @@ impl Controller {
             .map_or_else(|| PathBuf::from("/tmp"), PathBuf::from);
         let path = dir.join(format!("{}.pids", self.instance));
         let text = std::fs::read_to_string(path).ok()?;
+        // Lines are `<name> <pid> <restarts>`.
         text.lines().find_map(|l| {
-            let (name, pid) = l.split_once(' ')?;
-            (name == service).then(|| pid.trim().parse().ok()).flatten()
+            let mut fields = l.split_whitespace();
+            (fields.next()? == service)
+                .then(|| fields.next()?.parse().ok())
+                .flatten()
         })
     }
 
