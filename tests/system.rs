@@ -622,3 +622,80 @@ fn rc_status_shows_the_services_and_the_servo_tick() {
         .expect("rc status");
     assert!(!out.status.success(), "not running any more");
 }
+
+#[test]
+fn actual_position_in_a_user_tool_and_frame() {
+    use plc_client::response::ActualPosition;
+    use shared_types::srci::payload::PayloadWriter;
+    use shared_types::srci::tables::{write_frame_data as wfd, write_tool_data as wtd};
+    let c = Controller::start("toolframe");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    let write = |plc: &mut plc_client::CycleRunner<plc_client::TcpTransport>,
+                 command_type: u16,
+                 msg: Vec<u8>| {
+        let s = execute(
+            plc,
+            &Request::Raw {
+                command_type,
+                execution_mode: 2,
+                payload: msg[4..].to_vec(),
+            },
+            Duration::from_secs(5),
+        );
+        assert_eq!((s.state, s.code), (state::DONE, 0), "{s:?}");
+    };
+    let mut tool = vec![0u8; wtd::request::LEN];
+    {
+        let mut w = PayloadWriter::new(&mut tool);
+        w.set_f32(wtd::request::TOOL_DATA_Z, 100.0);
+        w.set_u8(wtd::request::TOOL_NO, 2);
+    }
+    write(&mut plc, wtd::TYPE, tool);
+    let mut frame = vec![0u8; wfd::request::LEN];
+    {
+        let mut w = PayloadWriter::new(&mut frame);
+        w.set_f32(wfd::request::FRAME_DATA_X, 100.0);
+        w.set_u8(wfd::request::FRAME_NO, 1);
+    }
+    write(&mut plc, wfd::TYPE, frame);
+    let read = |plc: &mut plc_client::CycleRunner<plc_client::TcpTransport>, tool, frame| {
+        let s = execute(
+            plc,
+            &Request::ReadActualPosition { tool, frame },
+            Duration::from_secs(5),
+        );
+        assert_eq!(s.state, state::DONE, "{s:?}");
+        ActualPosition::decode(&s.response)
+    };
+    let flange = read(&mut plc, 0, 0);
+    let in_frame = read(&mut plc, 0, 1);
+    assert_eq!((in_frame.tool, in_frame.frame), (0, 1));
+    assert!((in_frame.cartesian[0] - (flange.cartesian[0] - 100.0)).abs() < 0.01);
+    for i in 1..6 {
+        assert!(
+            (in_frame.cartesian[i] - flange.cartesian[i]).abs() < 0.01,
+            "{i}"
+        );
+    }
+    let tcp = read(&mut plc, 2, 0);
+    assert_eq!((tcp.tool, tcp.frame), (2, 0));
+    let d: f64 = (0..3)
+        .map(|i| (tcp.cartesian[i] - flange.cartesian[i]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(
+        (d - 100.0).abs() < 0.01,
+        "the TCP is 100 mm from the flange: {d}"
+    );
+    let missing = execute(
+        &mut plc,
+        &Request::ReadActualPosition { tool: 7, frame: 0 },
+        Duration::from_secs(5),
+    );
+    assert_eq!(
+        missing.state,
+        state::DONE,
+        "an unwritten tool is the identity: {missing:?}"
+    );
+}

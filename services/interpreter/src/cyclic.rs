@@ -5,9 +5,8 @@
 //! ToolNo, FrameNo, CurrentlyUsedToolNo, CurrentlyUsedFrameNo, 2 reserved) and JointPosition
 //! (bit 2, 30 bytes: J1..J6, E1, 2 reserved), in bit order after the header. When the
 //! Cartesian block is selected the PLC→robot header is followed by ToolNo and FrameNo, the
-//! tool and frame the PLC wants the position in (spec table 5-90); until user tools and
-//! frames exist the position is always the flange in the world frame, and the block's ToolNo
-//! and FrameNo say so. Other optional blocks are not offered.
+//! tool and frame the PLC wants the position in (spec table 5-90). Other optional blocks are
+//! not offered.
 
 use shared_types::srci::telegram::{
     FOOTER_LEN, FRAGMENT_HEADER_LEN, PLC_HEADER_LEN, ROBOT_HEADER_LEN, SEQUENCE_HEADER_LEN,
@@ -88,6 +87,13 @@ impl CyclicLayout {
     /// Cyclic bytes between the robot→PLC header and the first sequence.
     pub fn robot_len(&self) -> usize {
         usize::from(self.cartesian) * CARTESIAN_LEN + usize::from(self.joints) * JOINT_LEN
+    }
+
+    /// ToolNo and FrameNo the PLC asks the Cartesian position in (255 = the one in use).
+    pub fn requested_tool_frame(&self, plc_telegram: &[u8]) -> Option<(u8, u8)> {
+        let at = PLC_HEADER_LEN;
+        (self.cartesian && plc_telegram.len() >= at + TOOL_FRAME_LEN)
+            .then(|| (plc_telegram[at], plc_telegram[at + 1]))
     }
 
     /// Writes the selected blocks after the robot→PLC header.

@@ -10,6 +10,7 @@ pub mod motion_link;
 pub mod responses;
 pub mod server;
 mod service;
+pub mod tcp_pose;
 pub mod user_data;
 
 pub use service::{InterpreterError, run};

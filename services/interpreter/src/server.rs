@@ -26,7 +26,8 @@ use crate::cyclic::{CyclicLayout, CyclicPosition};
 use crate::messages::{MessageLog, MessageType};
 use crate::motion_link::{JobUpdate, MotionLink, PlannerFault};
 use crate::responses::ResponseQueue;
-use crate::user_data::UserData;
+use crate::tcp_pose::tcp_pose;
+use crate::user_data::{CURRENT_INDEX as CURRENT, UserData};
 
 /// Settings of the server core, taken from the configuration at start-up.
 #[derive(Debug, Clone)]
@@ -231,14 +232,16 @@ impl Server {
             }
         }
         if self.telegram_state == ts::INITIALIZED {
-            self.write_cyclic(out);
+            self.write_cyclic(rx, out);
         }
         self.write_header(out);
         len
     }
 
-    /// The optional cyclic position blocks (ReadActualPositionCyclic), fresh every telegram.
-    fn write_cyclic(&self, out: &mut [u8]) {
+    /// The optional cyclic position blocks (ReadActualPositionCyclic), fresh every telegram,
+    /// the Cartesian one in the tool and frame the PLC header asks for (an index that does
+    /// not exist falls back to the ones in use; the block says which it used).
+    fn write_cyclic(&self, rx: &[u8], out: &mut [u8]) {
         let layout = self.cyclic();
         if layout.robot_len() == 0 {
             return;
@@ -246,20 +249,24 @@ impl Server {
         let (Some(f), Some(s)) = (self.feedback, self.status) else {
             return;
         };
-        let p = s.flange_pose;
+        let (tool, frame) = layout
+            .requested_tool_frame(rx)
+            .unwrap_or((CURRENT, CURRENT));
+        let in_use = |data: &UserData| tcp_pose(data, s.flange_pose, CURRENT, CURRENT);
+        let Ok((tool, frame, pose)) = tcp_pose(&self.user_data, s.flange_pose, tool, frame)
+            .or_else(|_| in_use(&self.user_data))
+        else {
+            return;
+        };
         let position = CyclicPosition {
-            pose: [
-                p[0] * 1000.0,
-                p[1] * 1000.0,
-                p[2] * 1000.0,
-                p[3].to_degrees(),
-                p[4].to_degrees(),
-                p[5].to_degrees(),
-            ],
+            pose,
             joints: f.q.map(f64::to_degrees),
+            tool,
+            frame,
+            current_tool: self.user_data.current_tool(),
+            current_frame: self.user_data.current_frame(),
             arm_config: s.arm_config,
             turn_numbers: s.turn_numbers,
-            ..CyclicPosition::default()
         };
         layout.write(out, &position);
     }

@@ -7,6 +7,7 @@ use shared_types::srci::tables::{enable_robot as er, read_actual_position as rap
 
 use super::LiveKind;
 use crate::server::{Effects, Now, Server};
+use crate::tcp_pose::tcp_pose;
 
 pub(crate) use crate::user_data::CURRENT_INDEX;
 
@@ -183,45 +184,25 @@ impl Server {
         let r = PayloadReader::new(msg);
         let tool = r.u8(rap::request::TOOL_NO);
         let frame = r.u8(rap::request::FRAME_NO);
-        if tool != 0 && tool != CURRENT_INDEX {
-            self.respond(
-                cmd_id,
-                h,
-                state::ERROR,
-                code::TOOL_NOT_EXISTING,
-                now,
-                |_| {},
-            );
-            return;
-        }
-        if frame != 0 && frame != CURRENT_INDEX {
-            self.respond(
-                cmd_id,
-                h,
-                state::ERROR,
-                code::FRAME_NOT_EXISTING,
-                now,
-                |_| {},
-            );
-            return;
-        }
         let (Some(feedback), Some(status)) = (self.feedback, self.status) else {
             // Without drive feedback and planner status there is no position to report.
             self.respond(cmd_id, h, state::ERROR, code::MOTION_ERROR, now, |_| {});
             return;
         };
+        let (tool_no, frame_no, pose) =
+            match tcp_pose(&self.user_data, status.flange_pose, tool, frame) {
+                Ok(p) => p,
+                Err(c) => {
+                    self.respond(cmd_id, h, state::ERROR, c, now, |_| {});
+                    return;
+                }
+            };
         self.respond(cmd_id, h, state::DONE, 0, now, |b| {
             let mut w = PayloadWriter::new(b);
-            w.set_u8(rap::response::TOOL_NO_RETURN, 0);
-            w.set_u8(rap::response::FRAME_NO_RETURN, 0);
-            let p = status.flange_pose;
+            w.set_u8(rap::response::TOOL_NO_RETURN, tool_no);
+            w.set_u8(rap::response::FRAME_NO_RETURN, frame_no);
             let cart = rap::response::ACTUAL_CARTESIAN_POSITION_X_RZ;
-            for (k, f) in cart.into_iter().enumerate() {
-                let v = if k < 3 {
-                    p[k] * 1000.0
-                } else {
-                    p[k].to_degrees()
-                };
+            for (f, v) in cart.into_iter().zip(pose) {
                 w.set_f32(f, v as f32);
             }
             // The configuration bits share byte 34 and follow the Shoulder/Elbow/Wrist fields.

@@ -1,0 +1,108 @@
+//! The actual position in any tool and frame: the flange pose in the world frame (from the
+//! planner) composed with the tool offset and the chain of user frames (from the user data).
+//!
+//! Orientation convention of every pose: fixed-axis X-Y-Z angles, R = Rz(Rz)·Ry(Ry)·Rx(Rx).
+
+use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion};
+
+use crate::user_data::{HIGHEST_INDEX, UserData};
+
+/// A pose as SRCI sends it: X, Y, Z in mm, RX, RY, RZ in degrees.
+pub type WirePose = [f64; 6];
+
+fn isometry(translation: [f64; 3], rx: f64, ry: f64, rz: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::new(translation[0], translation[1], translation[2]),
+        UnitQuaternion::from_rotation_matrix(&Rotation3::from_euler_angles(rx, ry, rz)),
+    )
+}
+
+/// An SRCI pose (mm, degrees) as an isometry in metres.
+pub fn from_wire(p: WirePose) -> Isometry3<f64> {
+    isometry(
+        [p[0] / 1000.0, p[1] / 1000.0, p[2] / 1000.0],
+        p[3].to_radians(),
+        p[4].to_radians(),
+        p[5].to_radians(),
+    )
+}
+
+/// An isometry in metres as an SRCI pose (mm, degrees).
+pub fn to_wire(t: &Isometry3<f64>) -> WirePose {
+    let (rx, ry, rz) = t.rotation.euler_angles();
+    let p = t.translation.vector;
+    [
+        p.x * 1000.0,
+        p.y * 1000.0,
+        p.z * 1000.0,
+        rx.to_degrees(),
+        ry.to_degrees(),
+        rz.to_degrees(),
+    ]
+}
+
+/// World → frame `index` through its reference frames (the store refuses cycles; the
+/// chain is bounded by the number of frames anyway).
+fn world_to_frame(data: &UserData, index: u8) -> Result<Isometry3<f64>, u16> {
+    let mut t = Isometry3::identity();
+    let mut i = index;
+    for _ in 0..=HIGHEST_INDEX {
+        if i == 0 {
+            return Ok(t);
+        }
+        let (_, frame) = data.read_frame(i)?;
+        t = from_wire(frame.data.pose.map(f64::from)) * t;
+        i = frame.data.reference_frame;
+    }
+    Ok(t)
+}
+
+/// The TCP of tool `tool` in frame `frame` (255 = the one in use) for the flange pose
+/// `flange` (world frame: m and rad, R = Rz·Ry·Rx); returns the tool and frame numbers used
+/// and the pose, or the code that refuses an index.
+pub fn tcp_pose(
+    data: &UserData,
+    flange: [f64; 6],
+    tool: u8,
+    frame: u8,
+) -> Result<(u8, u8, WirePose), u16> {
+    let (tool_no, tool_entry) = data.read_tool(tool)?;
+    let (frame_no, _) = data.read_frame(frame)?;
+    let world_flange = isometry(
+        [flange[0], flange[1], flange[2]],
+        flange[3],
+        flange[4],
+        flange[5],
+    );
+    let flange_tcp = from_wire(tool_entry.data.pose.map(f64::from));
+    let world_frame = world_to_frame(data, frame_no)?;
+    let frame_tcp = world_frame.inverse() * world_flange * flange_tcp;
+    Ok((tool_no, frame_no, to_wire(&frame_tcp)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wire_poses_round_trip() {
+        let p = [500.0, -20.0, 300.0, 10.0, -35.0, 120.0];
+        let back = to_wire(&from_wire(p));
+        for (a, b) in p.iter().zip(back) {
+            assert!((a - b).abs() < 1e-9, "{p:?} vs {back:?}");
+        }
+    }
+
+    #[test]
+    fn tool_zero_in_frame_zero_is_the_flange() {
+        let cfg = shared_types::config::Config::load(None).unwrap();
+        let data = UserData::factory(crate::user_data::RobotBounds::of(&cfg.robot).0);
+        let flange = [0.5, 0.1, 0.3, 0.0, core::f64::consts::FRAC_PI_2, 0.0];
+        let (t, f, p) = tcp_pose(&data, flange, 255, 255).unwrap();
+        assert_eq!((t, f), (0, 0));
+        assert!(
+            (p[0] - 500.0).abs() < 1e-9 && (p[4] - 90.0).abs() < 1e-9,
+            "{p:?}"
+        );
+    }
+}
