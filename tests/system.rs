@@ -240,7 +240,11 @@ fn group_interrupt_holds_on_the_path_and_group_continue_finishes_the_move() {
         0,
         "PrimarySequencePaused"
     );
-    assert!(!plc.task().is_moving());
+    // The drives report the last tick of the stop a telegram later than the planner.
+    assert!(
+        cycles_until(&mut plc, |t| !t.is_moving(), Duration::from_millis(100)),
+        "standing after GroupInterrupt"
+    );
     let held = actual_joints(&mut plc);
     plc.run_for(Duration::from_millis(300)).expect("cycles");
     assert!(max_deviation(held, actual_joints(&mut plc)) < 1e-3, "holds");
