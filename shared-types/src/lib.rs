@@ -5,6 +5,7 @@ pub mod alloc_count;
 pub mod bus;
 pub mod config;
 pub mod ipc;
+pub mod pose;
 pub mod realtime;
 pub mod srci;
 pub mod supervision;

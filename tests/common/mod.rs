@@ -94,18 +94,12 @@ impl Controller {
 
     /// The pid of `service` from the orchestrator's pid file.
     pub fn pid_of(&self, service: &str) -> Option<u32> {
-        let dir = std::env::var_os("XDG_RUNTIME_DIR")
-            .filter(|d| !d.is_empty())
-            .map_or_else(|| PathBuf::from("/tmp"), PathBuf::from);
-        let path = dir.join(format!("{}.pids", self.instance));
+        let path = orchestrator::pid_file::pid_file_path(&self.instance);
         let text = std::fs::read_to_string(path).ok()?;
-        // Lines are `<name> <pid> <restarts>`.
-        text.lines().find_map(|l| {
-            let mut fields = l.split_whitespace();
-            (fields.next()? == service)
-                .then(|| fields.next()?.parse().ok())
-                .flatten()
-        })
+        orchestrator::pid_file::parse(&text)
+            .into_iter()
+            .find(|e| e.service.name() == service)
+            .map(|e| e.pid)
     }
 
     /// A PLC client over TCP with default options (8 ms cycle, 256/256, lifesign 50 ms).

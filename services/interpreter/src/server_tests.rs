@@ -31,16 +31,7 @@ fn settings(len: usize) -> Settings {
         length_plc_to_rob: len,
         length_rob_to_plc: len,
         acr_length: 8,
-        lifesign_timeout_ms: 50,
-        message_capacity: 16,
-        initial_override_percent: 100.0,
-        planner_timeout_ms: 100,
-        manufacturer: "test".into(),
-        serial_number: "1".into(),
-        robot_name: "JAKA Zu 7".into(),
-        limits: cfg.robot.limits_rad(),
-        cycle_time_ms: 1,
-        enable_timeout_ms: 1000,
+        ..Settings::from_config(&cfg)
     }
 }
 

@@ -1,43 +1,38 @@
 //! The actual position in any tool and frame: the flange pose in the world frame (from the
 //! planner) composed with the tool offset and the chain of user frames (from the user data).
 //!
-//! Orientation convention of every pose: fixed-axis X-Y-Z angles, R = Rz(Rz)·Ry(Ry)·Rx(Rx).
+//! Orientation convention of every pose: [`shared_types::pose`].
 
-use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion};
+use nalgebra::Isometry3;
+use shared_types::pose;
 
 use crate::user_data::{HIGHEST_INDEX, UserData};
 
 /// A pose as SRCI sends it: X, Y, Z in mm, RX, RY, RZ in degrees.
 pub type WirePose = [f64; 6];
 
-fn isometry(translation: [f64; 3], rx: f64, ry: f64, rz: f64) -> Isometry3<f64> {
-    Isometry3::from_parts(
-        Translation3::new(translation[0], translation[1], translation[2]),
-        UnitQuaternion::from_rotation_matrix(&Rotation3::from_euler_angles(rx, ry, rz)),
-    )
-}
-
 /// An SRCI pose (mm, degrees) as an isometry in metres.
 pub fn from_wire(p: WirePose) -> Isometry3<f64> {
-    isometry(
-        [p[0] / 1000.0, p[1] / 1000.0, p[2] / 1000.0],
+    pose::isometry([
+        p[0] / 1000.0,
+        p[1] / 1000.0,
+        p[2] / 1000.0,
         p[3].to_radians(),
         p[4].to_radians(),
         p[5].to_radians(),
-    )
+    ])
 }
 
 /// An isometry in metres as an SRCI pose (mm, degrees).
 pub fn to_wire(t: &Isometry3<f64>) -> WirePose {
-    let (rx, ry, rz) = t.rotation.euler_angles();
-    let p = t.translation.vector;
+    let p = pose::pose(t);
     [
-        p.x * 1000.0,
-        p.y * 1000.0,
-        p.z * 1000.0,
-        rx.to_degrees(),
-        ry.to_degrees(),
-        rz.to_degrees(),
+        p[0] * 1000.0,
+        p[1] * 1000.0,
+        p[2] * 1000.0,
+        p[3].to_degrees(),
+        p[4].to_degrees(),
+        p[5].to_degrees(),
     ]
 }
 
@@ -68,12 +63,7 @@ pub fn tcp_pose(
 ) -> Result<(u8, u8, WirePose), u16> {
     let (tool_no, tool_entry) = data.read_tool(tool)?;
     let (frame_no, _) = data.read_frame(frame)?;
-    let world_flange = isometry(
-        [flange[0], flange[1], flange[2]],
-        flange[3],
-        flange[4],
-        flange[5],
-    );
+    let world_flange = pose::isometry(flange);
     let flange_tcp = from_wire(tool_entry.data.pose.map(f64::from));
     let world_frame = world_to_frame(data, frame_no)?;
     let frame_tcp = world_frame.inverse() * world_flange * flange_tcp;

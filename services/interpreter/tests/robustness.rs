@@ -69,21 +69,11 @@ const OUT_LEN: usize = MAX_TELEGRAM_LEN + 44;
 const OUT_FILL: u8 = 0xEE;
 
 fn settings(length_plc_to_rob: usize, length_rob_to_plc: usize, acr_length: usize) -> Settings {
-    let config = Config::load(None).unwrap();
     Settings {
         length_plc_to_rob,
         length_rob_to_plc,
         acr_length,
-        lifesign_timeout_ms: 50,
-        message_capacity: 16,
-        initial_override_percent: 100.0,
-        planner_timeout_ms: 100,
-        manufacturer: "robustness".into(),
-        serial_number: "1".into(),
-        robot_name: "JAKA Zu 7".into(),
-        limits: config.robot.limits_rad(),
-        cycle_time_ms: 1,
-        enable_timeout_ms: 1000,
+        ..Settings::from_config(&Config::load(None).unwrap())
     }
 }
 

@@ -15,11 +15,9 @@ use shared_types::srci::message::{code, state};
 
 use crate::events::EventLog;
 use crate::joint_move::{self, JointMove};
-use nalgebra::{Isometry3, Translation3, UnitQuaternion};
-
 use crate::kinematics::selection::{CartesianTarget, ConfigMode, ConfigModes, TurnMode, select};
 use crate::kinematics::turns::TurnNumbers;
-use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics, rotation_from_rpy};
+use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
 use crate::motion::{Dynamics, Motion, Phase};
 use crate::queue::MoveQueue;
 
@@ -309,13 +307,9 @@ impl Executor {
         start: &[f64; AXES],
     ) -> Result<[f64; AXES], u16> {
         let geometry = self.geometry.ok_or(code::TARGET_UNREACHABLE)?;
-        let [x, y, z, rx, ry, rz] = command.pose;
         let modes = command.config_modes;
         let target = CartesianTarget {
-            flange: Isometry3::from_parts(
-                Translation3::new(x, y, z),
-                UnitQuaternion::from_rotation_matrix(&rotation_from_rpy(rx, ry, rz)),
-            ),
+            flange: shared_types::pose::isometry(command.pose),
             config: ArmConfig::from_bits(command.arm_config),
             turns: TurnNumbers::from_wire(command.turn_numbers),
             config_modes: ConfigModes {

@@ -10,9 +10,9 @@ use shared_types::srci::tables::{
 };
 
 use super::LiveKind;
-use super::robot::CURRENT_INDEX;
 use crate::motion_link::JobUpdate;
 use crate::server::{Effects, Now, Server};
+use crate::user_data::CURRENT_INDEX;
 use crate::user_data::{DefaultRates, SwLimitsRad};
 
 /// "0 %: use internal minimal velocity".

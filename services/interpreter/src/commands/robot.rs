@@ -9,8 +9,6 @@ use super::LiveKind;
 use crate::server::{Effects, Now, Server};
 use crate::tcp_pose::tcp_pose;
 
-pub(crate) use crate::user_data::CURRENT_INDEX;
-
 impl Server {
     pub(crate) fn enable_robot(
         &mut self,

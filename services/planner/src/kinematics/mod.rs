@@ -67,12 +67,11 @@ pub use singularity::{
     WRIST_SINGULARITY_SIN,
 };
 
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use shared_types::config::KinematicsConfig;
 use shared_types::ipc::AXES;
 
-/// `cos(Ry)` below which the X and Z axes coincide (gimbal lock) and `Rz` is set to 0.
-const GIMBAL_LOCK_COS: f64 = 1e-9;
+pub use shared_types::pose::{rotation_from_rpy, rpy_from_matrix};
 
 /// The kinematic chain of the arm from the base to the flange.
 #[derive(Debug, Clone)]
@@ -107,10 +106,7 @@ impl Kinematics {
 
     /// The flange pose `[x, y, z, Rx, Ry, Rz]` (m, rad) with `R = Rz(Rz)·Ry(Ry)·Rx(Rx)`.
     pub fn flange_pose(&self, q: &[f64; AXES]) -> [f64; 6] {
-        let flange = self.flange(q);
-        let t = flange.translation.vector;
-        let [rx, ry, rz] = rpy_from_matrix(flange.rotation.to_rotation_matrix().matrix());
-        [t.x, t.y, t.z, rx, ry, rz]
+        shared_types::pose::pose(&self.flange(q))
     }
 
     /// The DH frames 0 (base) to 6 (flange) in the base frame; joint `i + 1` turns about the
@@ -131,33 +127,11 @@ impl Kinematics {
     }
 }
 
-/// The angles `[Rx, Ry, Rz]` with `R = Rz(Rz)·Ry(Ry)·Rx(Rx)`, `Ry` in [−π/2, π/2]. In gimbal
-/// lock (`Ry = ±π/2`) only `Rx ∓ Rz` is defined; `Rz` is then reported as 0.
-pub fn rpy_from_matrix(r: &Matrix3<f64>) -> [f64; 3] {
-    let cos_ry = r[(0, 0)].hypot(r[(1, 0)]);
-    let ry = (-r[(2, 0)]).atan2(cos_ry);
-    if cos_ry > GIMBAL_LOCK_COS {
-        [r[(2, 1)].atan2(r[(2, 2)]), ry, r[(1, 0)].atan2(r[(0, 0)])]
-    } else if r[(2, 0)] < 0.0 {
-        // Ry = +π/2: the matrix depends on Rx − Rz only, r12 = sin(Rx − Rz), r22 = cos(…).
-        [r[(0, 1)].atan2(r[(1, 1)]), ry, 0.0]
-    } else {
-        // Ry = −π/2: the matrix depends on Rx + Rz only, r12 = −sin(Rx + Rz), r22 = cos(…).
-        [(-r[(0, 1)]).atan2(r[(1, 1)]), ry, 0.0]
-    }
-}
-
-/// The rotation `Rz(rz)·Ry(ry)·Rx(rx)`.
-pub fn rotation_from_rpy(rx: f64, ry: f64, rz: f64) -> Rotation3<f64> {
-    Rotation3::from_axis_angle(&Vector3::z_axis(), rz)
-        * Rotation3::from_axis_angle(&Vector3::y_axis(), ry)
-        * Rotation3::from_axis_angle(&Vector3::x_axis(), rx)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use core::f64::consts::FRAC_PI_2;
+    use nalgebra::Matrix3;
     use proptest::prelude::*;
     use shared_types::config::Config;
 
