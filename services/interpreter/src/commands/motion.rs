@@ -23,7 +23,8 @@ const PROGRESS_INTERVAL_MS: u64 = 100;
 /// A percentage rate as a fraction of the robot's limits, or the code for an invalid value.
 fn rate(wire: u16, default: f64, invalid: u16) -> Result<f64, u16> {
     match Percent::from_wire(wire) {
-        Percent::Default => Ok(default / 100.0),
+        // A default dynamics rate of 0 % (writable) means the minimal rate as well.
+        Percent::Default => Ok(default.clamp(MIN_RATE, 100.0) / 100.0),
         Percent::Value(p) if p <= 100.0 => Ok(p.max(MIN_RATE) / 100.0),
         Percent::Value(_) => Err(invalid),
     }
@@ -470,6 +471,27 @@ mod tests {
         for (edit, expected) in cases {
             assert_eq!(decode(&request(edit), header(0)).unwrap_err(), expected);
         }
+    }
+
+    #[test]
+    fn a_zero_default_rate_means_minimal_velocity_too() {
+        // Found by fuzzing: WriteRobotDefaultDynamics with 0 % made default-rate moves
+        // reach the planner with a velocity scale of 0.
+        let defaults = DefaultRates {
+            velocity: 0.0,
+            acceleration: 0.0,
+            deceleration: 0.0,
+            jerk: 0.0,
+        };
+        let limits = SwLimitsRad {
+            lower: [-3.0; 6],
+            upper: [3.0; 6],
+        };
+        let c = decode_move_axes(&request(|_| {}), header(0), defaults, limits).unwrap();
+        assert_eq!(
+            (c.velocity_scale, c.acceleration_scale, c.jerk_scale),
+            (0.01, 0.01, 0.01)
+        );
     }
 
     #[test]
