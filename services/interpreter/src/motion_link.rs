@@ -197,11 +197,6 @@ impl MotionLink {
     pub fn forget_jobs(&mut self) {
         self.jobs.clear();
     }
-
-    /// Whether the planner has reported within the timeout.
-    pub fn planner_alive(&self, now_ms: u64) -> bool {
-        self.planner_instance != 0 && now_ms.saturating_sub(self.last_status_ms) <= self.timeout_ms
-    }
 }
 
 #[cfg(test)]
