@@ -111,9 +111,12 @@ pub enum MotionCommandKind {
     Interrupt = 6,
     /// GroupContinue: resume the interrupted primary sequence on its path.
     Continue = 7,
-    /// Joint-interpolated move to the Cartesian flange pose `pose` (MoveDirectAbsolute): the
+    /// Joint-interpolated move to the Cartesian TCP pose `pose` (MoveDirectAbsolute): the
     /// planner chooses the joint target by inverse kinematics.
     MoveDirect = 8,
+    /// Cartesian straight-line move of the TCP to `pose` (MoveLinearAbsolute), orientation
+    /// interpolated as `ori_mode` says.
+    MoveLinear = 9,
 }
 
 impl MotionCommandKind {
@@ -128,6 +131,7 @@ impl MotionCommandKind {
             6 => Self::Interrupt,
             7 => Self::Continue,
             8 => Self::MoveDirect,
+            9 => Self::MoveLinear,
             _ => return None,
         })
     }
@@ -153,23 +157,30 @@ pub struct MotionCommand {
     pub reserved: u16,
     /// Target joints in rad (MoveAxes).
     pub joints_rad: [f64; AXES],
-    /// Fractions of the robot's joint limits, in (0, 1].
+    /// Fractions of the robot's joint limits (and, for Cartesian moves, of its TCP limits),
+    /// in (0, 1].
     pub velocity_scale: f64,
     pub acceleration_scale: f64,
+    pub deceleration_scale: f64,
     pub jerk_scale: f64,
     /// Requested duration in s; 0 = as fast as the scaled limits allow.
     pub duration_s: f64,
     /// Override for `Override`, in [0, 1].
     pub override_fraction: f64,
-    /// Flange target of `MoveDirect`: x, y, z in m, Rx, Ry, Rz in rad (R = Rz·Ry·Rx).
+    /// TCP target of `MoveDirect` and `MoveLinear` in the robot base frame: x, y, z in m,
+    /// Rx, Ry, Rz in rad (R = Rz·Ry·Rx).
     pub pose: [f64; 6],
+    /// The TCP in the flange frame (the active tool), same units; zero = the flange itself.
+    pub tool: [f64; 6],
     /// SRCI configuration bits and TurnNumber bytes sent with the pose.
     pub arm_config: u8,
     pub turn_numbers: [u8; 4],
     /// ConfigMode of shoulder, elbow and wrist, and TurnMode (wire values).
     pub config_modes: [u8; 3],
     pub turn_mode: u8,
-    pub reserved2: [u8; 7],
+    /// OriMode of `MoveLinear` (wire value, 0 = standard: the shortest rotation).
+    pub ori_mode: u8,
+    pub reserved2: [u8; 6],
 }
 
 impl MotionCommand {
@@ -185,16 +196,19 @@ impl MotionCommand {
             joints_rad: [0.0; AXES],
             velocity_scale: 1.0,
             acceleration_scale: 1.0,
+            deceleration_scale: 1.0,
             jerk_scale: 1.0,
             duration_s: 0.0,
             override_fraction: 1.0,
             pose: [0.0; 6],
+            tool: [0.0; 6],
             arm_config: 0,
             turn_numbers: [0; 4],
             // SAME configuration, FREE turns: the SRCI defaults.
             config_modes: [1; 3],
             turn_mode: 2,
-            reserved2: [0; 7],
+            ori_mode: 0,
+            reserved2: [0; 6],
         }
     }
 }

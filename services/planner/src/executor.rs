@@ -216,6 +216,9 @@ impl Executor {
         match MotionCommandKind::from_wire(command.kind) {
             Some(MotionCommandKind::MoveAxes) => self.accept_move(command, drive),
             Some(MotionCommandKind::MoveDirect) => self.accept_move_direct(command, drive),
+            Some(MotionCommandKind::MoveLinear) => {
+                self.report(job, state::ERROR, code::NOT_IMPLEMENTED)
+            }
             Some(MotionCommandKind::Stop) => {
                 self.stop(code::ABORTED_BY_GROUP_STOP);
                 if let Some(previous) = self.pending_stop.replace(job) {
