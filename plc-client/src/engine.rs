@@ -717,7 +717,10 @@ impl RobotTask {
                 t::UNDEFINED => {}
                 // The open client always resets, so that the robot also clears its register.
                 s if t::is_error(s) => self.control = Control::Reset,
-                t::READY_TO_RESUME => self.control = Control::Resume,
+                // Resuming makes sense only for a client that still holds the commands of
+                // the robot's register; a fresh client resets it instead of inheriting them.
+                t::READY_TO_RESUME if self.acr.in_use() > 0 => self.control = Control::Resume,
+                t::READY_TO_RESUME => self.control = Control::Reset,
                 t::READY_FOR_INITIALIZATION => self.control = Control::Initialize,
                 t::INITIALIZED => {
                     self.control = Control::None;

@@ -26,6 +26,7 @@ use crate::cyclic::{CyclicLayout, CyclicPosition};
 use crate::messages::{MessageLog, MessageType};
 use crate::motion_link::{JobUpdate, MotionLink, PlannerFault};
 use crate::responses::ResponseQueue;
+use crate::server_log::{JOURNAL_LINES, ServerLog};
 use crate::tcp_pose::tcp_pose;
 use crate::user_data::{CURRENT_INDEX as CURRENT, UserData};
 
@@ -138,6 +139,7 @@ pub struct Server {
     pub(crate) acr: Acr,
     pub(crate) responses: ResponseQueue,
     pub(crate) messages: MessageLog,
+    pub(crate) server_log: ServerLog,
     pub(crate) live: Vec<LiveCommand>,
     pub(crate) motion: MotionLink,
     pub(crate) updates: Vec<JobUpdate>,
@@ -150,6 +152,9 @@ pub struct Server {
     pub user_data: UserData,
     last_drive_fault: u16,
     last_planner_error: u16,
+    /// The session lost its PLC (link or lifesign) with the primary sequence held and the
+    /// ACR kept: a PLC may RESUME it (TelegramState 253) or RESET it.
+    suspended: bool,
 }
 
 impl Server {
@@ -169,6 +174,7 @@ impl Server {
             acr: Acr::new(acr_length),
             responses: ResponseQueue::new(acr_length * 4 + 16),
             messages: MessageLog::new(settings.message_capacity),
+            server_log: ServerLog::new(JOURNAL_LINES),
             live: Vec::with_capacity(acr_length),
             motion: MotionLink::new(issuer, acr_length + 8, settings.planner_timeout_ms),
             updates: Vec::with_capacity(acr_length * 2 + 8),
@@ -180,6 +186,7 @@ impl Server {
             user_data,
             last_drive_fault: 0,
             last_planner_error: 0,
+            suspended: false,
             settings,
         }
     }
@@ -271,18 +278,34 @@ impl Server {
         layout.write(out, &position);
     }
 
-    /// The fieldbus link changed. A lost or replaced peer ends the session: motion stops and
-    /// the next PLC must reset and initialize again.
+    /// The fieldbus link changed. A lost or replaced peer suspends the session: motion stops
+    /// on its path and the commands stay in the ACR. The next PLC finds READY_TO_RESUME and
+    /// may RESUME the session, or RESET it.
     pub fn on_link(&mut self, now: Now, event: LinkEvent, fx: &mut Effects) {
-        if matches!(event, LinkEvent::Connected | LinkEvent::Disconnected)
-            && self.telegram_state == ts::INITIALIZED
-        {
+        if !matches!(event, LinkEvent::Connected | LinkEvent::Disconnected) {
+            return;
+        }
+        if self.telegram_state == ts::INITIALIZED {
             self.fail_session(
                 ts::CONNECTION_LOST,
                 now,
                 fx,
                 "fieldbus connection to the PLC lost",
             );
+        }
+        if event == LinkEvent::Connected && self.suspended {
+            self.offer_resume(now, fx);
+        }
+    }
+
+    /// A suspended session waits for a PLC: READY_TO_RESUME while commands are registered,
+    /// otherwise there is nothing to resume and the session ends.
+    fn offer_resume(&mut self, now: Now, fx: &mut Effects) {
+        if self.acr.live() > 0 {
+            self.telegram_state = ts::READY_TO_RESUME;
+        } else {
+            self.halt_session(now, fx);
+            self.telegram_state = ts::READY_FOR_INITIALIZATION;
         }
     }
 
@@ -411,10 +434,16 @@ impl Server {
         }
     }
 
-    /// Leaves INITIALIZED for an error state: motion halts, commands of the session end.
+    /// Leaves INITIALIZED for an error state. A lost PLC (link or lifesign) suspends the
+    /// session so that it can be resumed; any other fault ends it: motion halts, the
+    /// commands of the session end.
     fn fail_session(&mut self, error_state: u8, now: Now, fx: &mut Effects, text: &str) {
         self.telegram_state = error_state;
-        self.halt_session(now, fx);
+        if matches!(error_state, ts::CONNECTION_LOST | ts::LIFESIGN_TIMEOUT) {
+            self.suspend_session(error_state, now, fx);
+        } else {
+            self.halt_session(now, fx);
+        }
         self.raise(
             now,
             MessageType::Interface,
@@ -424,8 +453,32 @@ impl Server {
         );
     }
 
+    /// Holds the session without a PLC: a running jog ends (nobody holds its button), the
+    /// primary sequence is interrupted on its path (its running move reports INTERRUPTED),
+    /// and the ACR, the pending responses and the sequence numbers are kept for RESUME.
+    fn suspend_session(&mut self, error_state: u8, now: Now, fx: &mut Effects) {
+        let lost = 0x8000 | u16::from(error_state);
+        self.end_jogs(lost, now, fx);
+        let interrupt = MotionCommand::new(MotionCommandKind::Interrupt);
+        if self
+            .motion
+            .submit(interrupt, None, now.mono_ms, &mut fx.motion)
+            .is_none()
+        {
+            self.raise(
+                now,
+                MessageType::Controller,
+                severity::WARNING,
+                code::INTERNAL_ERROR,
+                "interrupt not queued: the planner is not taking commands",
+            );
+        }
+        self.suspended = true;
+    }
+
     /// Stops motion and forgets everything of the SRCI session (ACR, responses, sequences).
     fn halt_session(&mut self, now: Now, fx: &mut Effects) {
+        self.suspended = false;
         if self
             .motion
             .submit(
@@ -461,7 +514,7 @@ impl Server {
             Control::Reset | Control::ClientError
                 if self.telegram_state != ts::READY_FOR_INITIALIZATION =>
             {
-                if self.telegram_state == ts::INITIALIZED {
+                if self.telegram_state == ts::INITIALIZED || self.suspended {
                     self.halt_session(now, fx);
                 }
                 self.telegram_state = ts::READY_FOR_INITIALIZATION;
@@ -474,9 +527,23 @@ impl Server {
                 );
             }
             Control::AckError if ts::is_error(self.telegram_state) => {
-                self.telegram_state = ts::READY_FOR_INITIALIZATION;
+                if self.suspended {
+                    self.offer_resume(now, fx);
+                } else {
+                    self.telegram_state = ts::READY_FOR_INITIALIZATION;
+                }
             }
-            Control::Initialize if self.telegram_state == ts::READY_FOR_INITIALIZATION => {
+            Control::Resume if self.telegram_state == ts::READY_TO_RESUME => self.resume(h, now),
+            Control::Initialize
+                if matches!(
+                    self.telegram_state,
+                    ts::READY_FOR_INITIALIZATION | ts::READY_TO_RESUME
+                ) =>
+            {
+                // A PLC that initializes instead of resuming starts a new session.
+                if self.suspended {
+                    self.halt_session(now, fx);
+                }
                 self.telegram_state = self.initialize(h);
                 if self.telegram_state == ts::INITIALIZED {
                     self.lifesign_changed_ms = now.mono_ms;
@@ -503,6 +570,34 @@ impl Server {
             }
             _ => {}
         }
+    }
+
+    /// RESUME of a suspended session: the header must be the one it was initialized with;
+    /// the ACR, its responses and the sequence numbers continue. The primary sequence stays
+    /// interrupted until the PLC sends GroupContinue, so the arm does not start by itself.
+    fn resume(&mut self, h: &PlcHeader, now: Now) {
+        if let Some(error) = self.session_violation(h) {
+            self.telegram_state = error;
+            self.raise(
+                now,
+                MessageType::Interface,
+                severity::ERROR,
+                0x8000 | u16::from(error),
+                "resume refused: telegram header differs from the suspended session's",
+            );
+            return;
+        }
+        self.telegram_state = ts::INITIALIZED;
+        self.suspended = false;
+        self.plc_lifesign = Some(h.lifesign);
+        self.lifesign_changed_ms = now.mono_ms;
+        self.raise(
+            now,
+            MessageType::Interface,
+            severity::INFO,
+            0,
+            "session resumed: commands continue after GroupContinue",
+        );
     }
 
     /// Checks an INITIALIZE header; returns the new TelegramState.
@@ -711,6 +806,8 @@ impl Server {
     pub(crate) fn raise(&mut self, now: Now, kind: MessageType, sev: i8, code: u16, text: &str) {
         self.messages
             .raise(now.unix_ms, kind, sev, u32::from(code), text);
+        self.server_log
+            .record(now.unix_ms, kind, sev, u32::from(code), text);
     }
 
     /// Whether the drives are enabled (moves possible).

@@ -285,7 +285,7 @@ fn header_faults_give_their_telegram_states_and_reset_recovers() {
 }
 
 #[test]
-fn frozen_lifesign_gives_165_and_halts_motion() {
+fn frozen_lifesign_gives_165_holds_motion_and_reset_halts_it() {
     let mut server = Server::new(settings(256), 9, user_data());
     let mut plc = Plc::new(256);
     plc.initialize(&mut server);
@@ -295,10 +295,17 @@ fn frozen_lifesign_gives_165_and_halts_motion() {
         state = plc.exchange(&mut server, &[]);
     }
     assert_eq!(state, ts::LIFESIGN_TIMEOUT);
-    assert!(
-        plc.motion
-            .iter()
-            .any(|c| c.kind == MotionCommandKind::Halt as u8)
+    let kinds = |plc: &Plc| plc.motion.iter().map(|c| c.kind).collect::<Vec<_>>();
+    assert_eq!(kinds(&plc), [MotionCommandKind::Interrupt as u8]);
+    // The client answers 165 with RESET: the held session ends.
+    plc.control = Control::Reset;
+    assert_eq!(plc.exchange(&mut server, &[]), ts::READY_FOR_INITIALIZATION);
+    assert_eq!(
+        kinds(&plc),
+        [
+            MotionCommandKind::Interrupt as u8,
+            MotionCommandKind::Halt as u8
+        ]
     );
     // A changed header after initialization is refused as well.
     let mut server = Server::new(settings(256), 9, user_data());
@@ -364,7 +371,11 @@ fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
     let map: [u8; 19] = core::array::from_fn(|i| {
         r.u8(t::read_robot_data::response::RC_SUPPORTED_FUNCTIONS.element(i))
     });
-    for ty in crate::commands::IMPLEMENTED {
+    // Every implemented function that has a bit (the server logs have none) is announced.
+    for ty in crate::commands::IMPLEMENTED
+        .into_iter()
+        .filter(|&ty| supported::BITS.iter().any(|b| b.0 == ty))
+    {
         assert!(supported::announces(&map, ty), "type {ty} announced");
     }
     assert!(!supported::announces(&map, t::move_linear_absolute::TYPE));
@@ -628,4 +639,191 @@ fn cyclic_position_blocks_come_with_every_telegram_and_shift_the_sequences() {
         plc.exchange(&mut server, &[]),
         ts::TELEGRAM_NUMBER_UNSUPPORTED
     );
+}
+
+/// A move that the planner is executing as job `job` for command `cmd_id`.
+fn running_move(server: &mut Server, plc: &mut Plc, fx: &mut Effects, cmd_id: u16) -> u32 {
+    let mut msg = request(
+        t::move_axes_absolute::TYPE,
+        0,
+        t::move_axes_absolute::request::LEN,
+    );
+    PayloadWriter::new(&mut msg).set_u16(t::move_axes_absolute::request::DECELERATION_RATE, 0xFFFF);
+    plc.command(server, cmd_id, NEW, &msg);
+    let job = plc
+        .motion
+        .iter()
+        .rev()
+        .find(|c| c.kind == MotionCommandKind::MoveAxes as u8)
+        .unwrap()
+        .job;
+    let events = [(1, job, state::BUFFERED, 0), (2, job, state::ACTIVE, 0)];
+    server.on_motion_status(plc.now(), &status(5, &events), fx);
+    plc.idle(server);
+    job
+}
+
+#[test]
+fn lost_link_offers_resume_and_the_same_commands_continue() {
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    let job = running_move(&mut server, &mut plc, &mut fx, 4);
+    assert_eq!(plc.last_response(4).unwrap().state, state::ACTIVE);
+
+    plc.motion.clear();
+    let mut link_fx = Effects::new();
+    server.on_link(plc.now(), LinkEvent::Disconnected, &mut link_fx);
+    assert_eq!(server.telegram_state(), ts::CONNECTION_LOST);
+    let held: Vec<u8> = link_fx.motion.iter().map(|c| c.kind).collect();
+    assert_eq!(
+        held,
+        [MotionCommandKind::Interrupt as u8],
+        "held, not halted"
+    );
+    let events = [
+        (1, job, state::BUFFERED, 0),
+        (2, job, state::ACTIVE, 0),
+        (
+            3,
+            job,
+            state::INTERRUPTED,
+            code::INTERRUPTED_BY_GROUP_INTERRUPT,
+        ),
+    ];
+    server.on_motion_status(plc.now(), &status(5, &events), &mut fx);
+
+    server.on_link(plc.now(), LinkEvent::Connected, &mut link_fx);
+    assert_eq!(plc.exchange(&mut server, &[]), ts::READY_TO_RESUME);
+    plc.control = Control::Resume;
+    assert_eq!(plc.exchange(&mut server, &[]), ts::INITIALIZED);
+    plc.control = Control::None;
+    plc.idle(&mut server);
+    let h = plc.last_response(4).unwrap();
+    assert_eq!(
+        (h.state, h.code),
+        (state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT),
+        "the move is still registered and reports the interruption"
+    );
+    let interrupt_seq = link_fx.motion[0].seq;
+    assert!(
+        plc.motion.iter().all(|c| c.seq <= interrupt_seq),
+        "nothing new reaches the planner before GroupContinue (only re-sends of unacknowledged commands): {:?}",
+        plc.motion
+    );
+    plc.command(
+        &mut server,
+        5,
+        NEW,
+        &request(t::group_continue::TYPE, 2, t::group_continue::request::LEN),
+    );
+    assert!(
+        plc.motion
+            .iter()
+            .any(|c| c.kind == MotionCommandKind::Continue as u8)
+    );
+    let events = [
+        (
+            3,
+            job,
+            state::INTERRUPTED,
+            code::INTERRUPTED_BY_GROUP_INTERRUPT,
+        ),
+        (4, job, state::ACTIVE, 0),
+        (5, job, state::DONE, 0),
+    ];
+    server.on_motion_status(plc.now(), &status(5, &events), &mut fx);
+    plc.idle(&mut server);
+    assert_eq!(plc.last_response(4).unwrap().state, state::DONE);
+}
+
+#[test]
+fn a_plc_that_initializes_instead_of_resuming_ends_the_held_session() {
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    running_move(&mut server, &mut plc, &mut fx, 4);
+    server.on_link(plc.now(), LinkEvent::Connected, &mut fx);
+    assert_eq!(plc.exchange(&mut server, &[]), ts::READY_TO_RESUME);
+    plc.motion.clear();
+    plc.seq = 0;
+    plc.initialize(&mut server);
+    assert!(
+        plc.motion
+            .iter()
+            .any(|c| c.kind == MotionCommandKind::Halt as u8)
+    );
+    plc.idle(&mut server);
+    assert_eq!(
+        server.acr.live(),
+        0,
+        "a new session starts with an empty ACR"
+    );
+}
+
+#[test]
+fn resume_with_a_different_header_is_refused() {
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    running_move(&mut server, &mut plc, &mut fx, 4);
+    server.on_link(plc.now(), LinkEvent::Disconnected, &mut fx);
+    server.on_link(plc.now(), LinkEvent::Connected, &mut fx);
+    plc.number_r2p = 2;
+    plc.control = Control::Resume;
+    assert_eq!(plc.exchange(&mut server, &[]), ts::TELEGRAM_NUMBER_CHANGED);
+}
+
+#[test]
+fn server_logs_are_created_and_read_line_by_line() {
+    let (mut server, mut plc, _fx) = session(DriveState::Holding);
+    // Something to log: an unsupported command.
+    let unsupported = request(
+        t::move_circular_absolute::TYPE,
+        0,
+        t::move_circular_absolute::request::LEN,
+    );
+    plc.command(&mut server, 1, NEW, &unsupported);
+    plc.command(
+        &mut server,
+        2,
+        NEW,
+        &request(
+            t::create_server_log::TYPE,
+            2,
+            t::create_server_log::request::LEN,
+        ),
+    );
+    let (_, created) = plc.responses.iter().rev().find(|(id, _)| *id == 2).unwrap();
+    let r = PayloadReader::new(created);
+    assert_eq!(r.u8(t::create_server_log::response::STATE), state::DONE);
+    let log_id = r.i16(t::create_server_log::response::SERVER_LOG_ID);
+    assert_eq!(log_id, 1);
+
+    let mut read = request(
+        t::read_server_log::TYPE,
+        2,
+        t::read_server_log::request::LEN,
+    );
+    {
+        let mut w = PayloadWriter::new(&mut read);
+        w.set_bit(t::read_server_log::request::ENABLE, true);
+        w.set_u16(t::read_server_log::request::SERVER_LOG_ID, 1);
+        // Only command messages.
+        w.set_u8(t::read_server_log::request::CONTEXT_FILTER.element(0), 4);
+    }
+    plc.command(&mut server, 3, NEW, &read);
+    let (_, page) = plc.responses.iter().rev().find(|(id, _)| *id == 3).unwrap();
+    assert_eq!(page.len(), t::read_server_log::response::LEN);
+    let r = PayloadReader::new(page);
+    assert_eq!(r.u8(t::read_server_log::response::STATE), state::ACTIVE);
+    assert!(r.u32(t::read_server_log::response::AVAILABLE_LOG_LINES) >= 1);
+    assert_eq!(
+        r.u32(t::read_server_log::response::AVAILABLE_FILTERED_LOG_LINES),
+        1
+    );
+    let len = usize::from(r.u8(t::read_server_log::response::LOG_CONTENT_LENGTH));
+    let content = &page[14..14 + len];
+    let text = core::str::from_utf8(content).unwrap();
+    assert!(text.contains("CMD ERROR 0x00008F11"), "{text}");
+
+    // A log that does not exist.
+    PayloadWriter::new(&mut read).set_u16(t::read_server_log::request::SERVER_LOG_ID, 9);
+    plc.command(&mut server, 4, NEW, &read);
+    let h = plc.last_response(4).unwrap();
+    assert_eq!((h.state, h.code), (state::ERROR, 0x8D47));
 }

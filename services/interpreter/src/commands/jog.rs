@@ -198,6 +198,29 @@ impl Server {
         });
     }
 
+    /// Ends every running GroupJog with `code` and stops its motion on the path (the PLC that
+    /// held the jog buttons is gone).
+    pub(crate) fn end_jogs(&mut self, code: u16, now: Now, fx: &mut Effects) {
+        while let Some(i) = self
+            .live
+            .iter()
+            .position(|l| matches!(l.kind, LiveKind::Jog { .. }))
+        {
+            if let LiveKind::Jog { job, .. } = self.live[i].kind
+                && job != 0
+            {
+                let _ = self.motion.submit(
+                    MotionCommand::new(MotionCommandKind::Halt),
+                    None,
+                    now.mono_ms,
+                    &mut fx.motion,
+                );
+            }
+            let (cmd_id, h) = (self.live[i].cmd_id, self.live_header(i));
+            self.respond(cmd_id, h, state::ERROR, code, now, |_| {});
+        }
+    }
+
     /// A state change of the jog motion: the GroupJog command stays ACTIVE and reports
     /// whether the arm moves and whether an incremental distance was reached.
     pub(crate) fn on_jog_update(&mut self, i: usize, u: JobUpdate, now: Now) {
