@@ -9,6 +9,7 @@ pub mod messages;
 pub mod motion_link;
 pub mod responses;
 pub mod server;
+pub mod server_log;
 mod service;
 pub mod tcp_pose;
 pub mod user_data;

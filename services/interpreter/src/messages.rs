@@ -22,6 +22,35 @@ pub enum MessageType {
 /// Longest text ReadMessages carries.
 pub const TEXT_CAPACITY: usize = 150;
 
+/// A message text of at most [`TEXT_CAPACITY`] bytes, stored inline (no allocation).
+#[derive(Debug, Clone, Copy)]
+pub struct MessageText {
+    bytes: [u8; TEXT_CAPACITY],
+    len: u8,
+}
+
+impl MessageText {
+    /// `text`, cut at 150 bytes on a character boundary.
+    pub fn new(text: &str) -> Self {
+        let mut cut = text.len().min(TEXT_CAPACITY);
+        while !text.is_char_boundary(cut) {
+            cut -= 1;
+        }
+        let mut bytes = [0u8; TEXT_CAPACITY];
+        bytes[..cut].copy_from_slice(&text.as_bytes()[..cut]);
+        // `cut` <= 150.
+        Self {
+            bytes,
+            len: cut as u8,
+        }
+    }
+
+    /// The text.
+    pub fn as_str(&self) -> &str {
+        core::str::from_utf8(&self.bytes[..usize::from(self.len)]).unwrap_or("")
+    }
+}
+
 /// One logged message.
 #[derive(Debug, Clone)]
 pub struct Message {
@@ -32,15 +61,14 @@ pub struct Message {
     pub kind: MessageType,
     pub severity: i8,
     pub code: u32,
-    text: [u8; TEXT_CAPACITY],
-    text_len: u8,
+    text: MessageText,
     acknowledged: bool,
 }
 
 impl Message {
     /// The message text.
     pub fn text(&self) -> &str {
-        core::str::from_utf8(&self.text[..usize::from(self.text_len)]).unwrap_or("")
+        self.text.as_str()
     }
 }
 
@@ -70,12 +98,6 @@ impl MessageLog {
         if self.entries.len() >= self.capacity {
             self.entries.pop_front();
         }
-        let mut cut = text.len().min(TEXT_CAPACITY);
-        while !text.is_char_boundary(cut) {
-            cut -= 1;
-        }
-        let mut buf = [0u8; TEXT_CAPACITY];
-        buf[..cut].copy_from_slice(&text.as_bytes()[..cut]);
         let id = self.next_id;
         self.next_id = if self.next_id == 255 {
             1
@@ -93,9 +115,7 @@ impl MessageLog {
             kind,
             severity: sev,
             code,
-            text: buf,
-            // `cut` <= 150.
-            text_len: cut as u8,
+            text: MessageText::new(text),
             acknowledged: false,
         });
     }

@@ -4,6 +4,7 @@
 mod jog;
 mod motion;
 mod robot;
+mod server_log;
 mod session;
 mod user_data;
 
@@ -19,7 +20,7 @@ use crate::server::{Effects, Now, Server};
 
 /// Command types this interpreter implements; RCSupportedFunctions announces exactly these.
 /// ReadActualPositionCyclic has no command type and is not offered yet.
-pub const IMPLEMENTED: [u16; 25] = [
+pub const IMPLEMENTED: [u16; 27] = [
     t::read_robot_data::TYPE,
     t::exchange_configuration::TYPE,
     t::read_messages::TYPE,
@@ -45,6 +46,8 @@ pub const IMPLEMENTED: [u16; 25] = [
     t::write_robot_reference_dynamics::TYPE,
     t::read_robot_sw_limits::TYPE,
     t::write_robot_sw_limits::TYPE,
+    t::create_server_log::TYPE,
+    t::read_server_log::TYPE,
 ];
 
 /// A command that stays in the register after its first response.
@@ -70,6 +73,8 @@ pub enum LiveKind {
     },
     /// ExchangeConfiguration, enabled.
     Configuration,
+    /// ReadServerLog, enabled.
+    ServerLog,
     /// EnableRobot: the requested drive state, the Enabled bit last reported, the request
     /// time, and whether the drives were enabled since the request.
     Enable {
@@ -200,6 +205,8 @@ impl Server {
                 self.group_motion(cmd_id, h, MotionCommandKind::Continue, now, fx)
             }
             t::group_jog::TYPE => self.group_jog(cmd_id, h, msg, now, fx),
+            t::create_server_log::TYPE => self.create_server_log(cmd_id, h, now),
+            t::read_server_log::TYPE => self.read_server_log(cmd_id, h, msg, now),
             _ if self.user_data_command(cmd_id, h, msg, now) => {}
             _ => self.respond(cmd_id, h, state::ERROR, code::NOT_IMPLEMENTED, now, |_| {}),
         }
@@ -230,6 +237,7 @@ impl Server {
         match self.live[i].kind {
             LiveKind::Messages { .. } => self.update_read_messages(i, msg, now),
             LiveKind::Configuration => self.update_exchange_configuration(i, msg, now),
+            LiveKind::ServerLog => self.update_read_server_log(i, msg, now),
             LiveKind::Enable { .. } => self.update_enable_robot(i, msg, now, fx),
             LiveKind::Jog { .. } => self.update_group_jog(i, msg, now, fx),
             // Execute-type commands take no updates; the new ParSeq is simply acknowledged

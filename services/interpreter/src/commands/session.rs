@@ -22,7 +22,7 @@ const READ_MESSAGES_ENABLE: Field = Field {
     layout: Layout::Bit(0),
 };
 
-/// Whether `level` is a defined MessageLevel (0 = everything).
+/// Whether `level` is a defined MessageLevel or LogLevel (0 = everything).
 fn valid_message_level(level: u8) -> bool {
     matches!(level, 0 | 4 | 5 | 20 | 28 | 29)
 }
@@ -76,6 +76,13 @@ impl Server {
             self.respond(cmd_id, h, state::DONE, 0, now, |_| {});
             return;
         }
+        let log_level = r.u8(xc::request::LOG_LEVEL);
+        if !valid_message_level(log_level) {
+            self.respond(cmd_id, h, state::ERROR, code::INVALID_MODE, now, |_| {});
+            return;
+        }
+        // Validated: at most 29.
+        self.server_log.set_level(log_level as i8);
         let requested = r.u16(xc::request::LIFE_SIGN_TIME_OUT);
         let mut info = 0;
         self.lifesign_timeout_ms = if requested < MIN_LIFESIGN_MS {
@@ -92,6 +99,7 @@ impl Server {
             requested
         };
         let acr = u16::try_from(self.acr.length()).unwrap_or(u16::MAX);
+        let server_logs = self.server_log.count();
         let data = &self.user_data;
         let change = [
             (
@@ -111,6 +119,7 @@ impl Server {
             let mut w = PayloadWriter::new(b);
             w.set_bit(xc::response::ENABLED, true);
             w.set_u16(xc::response::LENGTH_ACR, acr);
+            w.set_u16(xc::response::NUMBER_OF_SERVER_LOGS, server_logs);
             for f in [
                 xc::response::HIGHEST_TOOL_INDEX,
                 xc::response::HIGHEST_FRAME_INDEX,
