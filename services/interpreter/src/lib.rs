@@ -11,6 +11,7 @@ pub mod responses;
 pub mod server;
 pub mod server_log;
 mod service;
+pub mod sync;
 pub mod tcp_pose;
 pub mod user_data;
 

@@ -27,6 +27,7 @@ use crate::messages::{MessageLog, MessageType};
 use crate::motion_link::{JobUpdate, MotionLink, PlannerFault};
 use crate::responses::ResponseQueue;
 use crate::server_log::{JOURNAL_LINES, ServerLog};
+use crate::sync::{SyncAction, SyncRequest, SyncSupervisor};
 use crate::tcp_pose::tcp_pose;
 use crate::user_data::{CURRENT_INDEX as CURRENT, UserData};
 
@@ -140,6 +141,9 @@ pub struct Server {
     pub(crate) responses: ResponseQueue,
     pub(crate) messages: MessageLog,
     pub(crate) server_log: ServerLog,
+    /// The data synchronisation of the session's last ExchangeConfiguration.
+    pub(crate) sync_request: SyncRequest,
+    sync_supervisor: SyncSupervisor,
     pub(crate) live: Vec<LiveCommand>,
     pub(crate) motion: MotionLink,
     pub(crate) updates: Vec<JobUpdate>,
@@ -175,6 +179,8 @@ impl Server {
             responses: ResponseQueue::new(acr_length * 4 + 16),
             messages: MessageLog::new(settings.message_capacity),
             server_log: ServerLog::new(JOURNAL_LINES),
+            sync_request: SyncRequest::default(),
+            sync_supervisor: SyncSupervisor::default(),
             live: Vec::with_capacity(acr_length),
             motion: MotionLink::new(issuer, acr_length + 8, settings.planner_timeout_ms),
             updates: Vec::with_capacity(acr_length * 2 + 8),
@@ -326,7 +332,40 @@ impl Server {
         }
         self.apply_job_updates(now, fx);
         self.progress_enable(now, fx);
+        if self.telegram_state == ts::INITIALIZED {
+            self.supervise_sync(now, fx);
+            self.refresh_configuration(now);
+        }
         self.refresh_messages();
+    }
+
+    /// Whether the interface is SYNCHRONIZED (every data set the PLC synchronises in sync).
+    pub(crate) fn synchronized(&self) -> bool {
+        crate::sync::synchronized(&self.sync_request, &self.user_data)
+    }
+
+    /// SyncReaction: interrupts the primary sequence once while the data is out of sync.
+    fn supervise_sync(&mut self, now: Now, fx: &mut Effects) {
+        let empty = self
+            .status
+            .is_none_or(|s| s.active_job == 0 && s.queued_jobs == 0);
+        let synchronized = self.synchronized();
+        let action =
+            self.sync_supervisor
+                .check(&self.sync_request, synchronized, empty, now.mono_ms);
+        if action == SyncAction::Interrupt {
+            let interrupt = MotionCommand::new(MotionCommandKind::Interrupt);
+            let _ = self
+                .motion
+                .submit(interrupt, None, now.mono_ms, &mut fx.motion);
+            self.raise(
+                now,
+                MessageType::Interface,
+                severity::WARNING,
+                code::NOT_SYNCHRONIZED,
+                "user data not synchronized: primary sequence interrupted (SyncReaction)",
+            );
+        }
     }
 
     /// A new planner status.
@@ -507,6 +546,8 @@ impl Server {
         self.reply_areas = [[0; 256]; 2];
         self.session = None;
         self.lifesign_timeout_ms = self.settings.lifesign_timeout_ms;
+        self.sync_request = SyncRequest::default();
+        self.sync_supervisor = SyncSupervisor::default();
     }
 
     fn handle_control(&mut self, h: &PlcHeader, now: Now, fx: &mut Effects) {

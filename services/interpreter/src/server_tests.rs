@@ -827,3 +827,101 @@ fn server_logs_are_created_and_read_line_by_line() {
     let h = plc.last_response(4).unwrap();
     assert_eq!((h.state, h.code), (state::ERROR, 0x8D47));
 }
+
+/// An ExchangeConfiguration request synchronising the SW limits with `reaction`.
+fn exchange_configuration_syncing_sw_limits(client_in_sync: bool, reaction: u8) -> Vec<u8> {
+    use t::exchange_configuration::request as q;
+    let mut msg = request(t::exchange_configuration::TYPE, 2, q::LEN);
+    let mut w = PayloadWriter::new(&mut msg);
+    w.set_bit(q::ENABLE, true);
+    w.set_u8(q::LOG_LEVEL, 5);
+    w.set_u16(q::LIFE_SIGN_TIME_OUT, 1000);
+    w.set_bit(q::ENABLE_SYNC_SW_LIMITS, true);
+    w.set_bit(q::SW_LIMITS_IN_SYNC_CLIENT, client_in_sync);
+    w.set_u8(q::SYNC_REACTION, reaction);
+    msg
+}
+
+fn last_body(plc: &Plc, cmd_id: u16) -> Vec<u8> {
+    plc.responses
+        .iter()
+        .rev()
+        .find(|(id, _)| *id == cmd_id)
+        .unwrap()
+        .1
+        .clone()
+}
+
+#[test]
+fn sync_reports_data_in_sync_follows_data_changed_and_denies_enabling() {
+    use t::exchange_configuration::response as xr;
+    let (mut server, mut plc, _fx) = session(DriveState::Powered);
+    plc.command(
+        &mut server,
+        1,
+        NEW,
+        &exchange_configuration_syncing_sw_limits(true, 1),
+    );
+    let r = last_body(&plc, 1);
+    let r = PayloadReader::new(&r);
+    assert_eq!(r.u8(xr::STATE), state::ACTIVE);
+    assert!(r.bit(xr::SW_LIMITS), "SW limits in sync");
+    assert!(!r.bit(xr::TOOL), "tools are not synchronised");
+
+    // The controller resets its SW limits: DataChanged, so no longer in sync; the live
+    // ExchangeConfiguration says so by itself.
+    let mut reset = request(
+        t::write_robot_sw_limits::TYPE,
+        2,
+        t::write_robot_sw_limits::request::LEN,
+    );
+    PayloadWriter::new(&mut reset).set_bit(
+        t::write_robot_sw_limits::request::RESET_TO_FACTORY_DEFAULT,
+        true,
+    );
+    plc.command(&mut server, 2, NEW, &reset);
+    plc.idle(&mut server);
+    let r = last_body(&plc, 1);
+    assert!(!PayloadReader::new(&r).bit(xr::SW_LIMITS));
+
+    // SyncReaction 1: EnableRobot is refused while not synchronized.
+    let mut enable = request(t::enable_robot::TYPE, 2, t::enable_robot::request::LEN);
+    PayloadWriter::new(&mut enable).set_bit(t::enable_robot::request::ENABLE, true);
+    plc.command(&mut server, 3, NEW, &enable);
+    let h = plc.last_response(3).unwrap();
+    assert_eq!((h.state, h.code), (state::ERROR, code::NOT_SYNCHRONIZED));
+
+    // An undefined SyncReaction.
+    plc.command(
+        &mut server,
+        4,
+        NEW,
+        &exchange_configuration_syncing_sw_limits(true, 9),
+    );
+    let h = plc.last_response(4).unwrap();
+    assert_eq!(
+        (h.state, h.code),
+        (state::ERROR, code::INVALID_SYNC_REACTION)
+    );
+}
+
+#[test]
+fn sync_reaction_3_interrupts_the_primary_sequence_after_the_delay() {
+    let (mut server, mut plc, _fx) = session(DriveState::Holding);
+    plc.command(
+        &mut server,
+        1,
+        NEW,
+        &exchange_configuration_syncing_sw_limits(false, 3),
+    );
+    // SyncDelay 0: the next poll reacts, once.
+    plc.idle(&mut server);
+    plc.idle(&mut server);
+    let interrupts = plc
+        .motion
+        .iter()
+        .filter(|c| c.kind == MotionCommandKind::Interrupt as u8)
+        .map(|c| c.seq)
+        .collect::<std::collections::BTreeSet<_>>();
+    assert_eq!(interrupts.len(), 1, "{:?}", plc.motion);
+}

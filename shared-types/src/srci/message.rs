@@ -145,6 +145,8 @@ pub mod code {
     pub const SERVER_STATE_RESET: u16 = 0x6A03;
     pub const ROBOT_DISABLED: u16 = 0x8C03;
     pub const DISABLED_DUE_TO_ERROR: u16 = 0x8C04;
+    /// The interface is not synchronized and SyncReaction denies enabling.
+    pub const NOT_SYNCHRONIZED: u16 = 0x8C06;
     /// Jog not possible during an active movement.
     pub const JOG_DURING_MOTION: u16 = 0x8C33;
     pub const SW_LIMIT_LOWER: u16 = 0x8C53;
@@ -167,6 +169,7 @@ pub mod code {
     pub const INVALID_OVERRIDE: u16 = 0x8D23;
     /// Cartesian position invalid (not a number).
     pub const INVALID_POSITION: u16 = 0x8D24;
+    pub const INVALID_SYNC_REACTION: u16 = 0x8D33;
     pub const INVALID_TIME: u16 = 0x8D34;
     pub const INVALID_TURN_MODE: u16 = 0x8D37;
     pub const INVALID_TOOL_NO: u16 = 0x8D35;

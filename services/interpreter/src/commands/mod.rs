@@ -71,8 +71,8 @@ pub enum LiveKind {
         counts: (u8, u8),
         enable_seen: bool,
     },
-    /// ExchangeConfiguration, enabled.
-    Configuration,
+    /// ExchangeConfiguration, enabled; `sent` is what its last response reported.
+    Configuration { sent: session::ConfigurationReport },
     /// ReadServerLog, enabled.
     ServerLog,
     /// EnableRobot: the requested drive state, the Enabled bit last reported, the request
@@ -130,7 +130,11 @@ pub fn describe(code: u16) -> &'static str {
         code::INVALID_STEP_MODE => "StepMode is not a defined value",
         code::STEP_MODE_NOT_SUPPORTED => "StepMode not supported yet",
         code::MOTION_ERROR => "motion error: the move was stopped",
-        code::INVALID_MODE => "MessageLevel is not a defined value",
+        code::INVALID_MODE => "MessageLevel or LogLevel is not a defined value",
+        code::INVALID_SYNC_REACTION => "SyncReaction is not a defined value (0..3)",
+        code::NOT_SYNCHRONIZED => {
+            "user data not synchronized and SyncReaction denies enabling the robot"
+        }
         code::INTERNAL_ERROR => "internal error (Active Command Register full or message too long)",
         _ => crate::user_data::codes::describe(code).unwrap_or("command ended with an error"),
     }
@@ -236,7 +240,7 @@ impl Server {
         self.live[i].par_seq = h.par_seq;
         match self.live[i].kind {
             LiveKind::Messages { .. } => self.update_read_messages(i, msg, now),
-            LiveKind::Configuration => self.update_exchange_configuration(i, msg, now),
+            LiveKind::Configuration { .. } => self.update_exchange_configuration(i, msg, now),
             LiveKind::ServerLog => self.update_read_server_log(i, msg, now),
             LiveKind::Enable { .. } => self.update_enable_robot(i, msg, now, fx),
             LiveKind::Jog { .. } => self.update_group_jog(i, msg, now, fx),

@@ -57,7 +57,10 @@ impl Server {
             1 | 2 => Some(code::STEP_MODE_NOT_SUPPORTED),
             _ => Some(code::INVALID_STEP_MODE),
         }
-        .or((want && self.error_pending).then_some(code::DISABLED_DUE_TO_ERROR));
+        .or((want && self.error_pending).then_some(code::DISABLED_DUE_TO_ERROR))
+        .or((want
+            && crate::sync::SyncSupervisor::denies_enable(&self.sync_request, self.synchronized()))
+        .then_some(code::NOT_SYNCHRONIZED));
         if let Some(c) = error {
             self.respond(cmd_id, h, state::ERROR, c, now, |_| {});
             return;

@@ -9,6 +9,7 @@ use shared_types::srci::tables::{
 
 use super::{IMPLEMENTED, LiveKind};
 use crate::server::{Now, Server};
+use crate::sync::{SyncReaction, SyncRequest};
 use crate::user_data::{DataSet, HIGHEST_INDEX};
 
 /// Lower limit of LifeSignTimeOut; smaller values are raised to it (info 0x6001).
@@ -21,6 +22,57 @@ const READ_MESSAGES_ENABLE: Field = Field {
     offset: 5,
     layout: Layout::Bit(0),
 };
+
+/// The DataInSync bits of the ExchangeConfiguration response, in the order of
+/// [`DataSet::ALL`].
+const DATA_IN_SYNC: [Field; 6] = [
+    xc::response::TOOL,
+    xc::response::FRAME,
+    xc::response::LOAD,
+    xc::response::SW_LIMITS,
+    xc::response::DEFAULT_DYNAMICS,
+    xc::response::REFERENCE_DYNAMICS,
+];
+
+/// What a live ExchangeConfiguration last reported of the values that change.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ConfigurationReport {
+    in_sync: [bool; 6],
+    work_area_in_sync: bool,
+    change_index: [u8; 3],
+    server_logs: u16,
+}
+
+/// The synchronisation an ExchangeConfiguration request asks for, or the code of an
+/// undefined SyncReaction.
+fn decode_sync_request(r: &PayloadReader<'_>) -> Result<SyncRequest, u16> {
+    use xc::request as q;
+    let reaction =
+        SyncReaction::from_wire(r.u8(q::SYNC_REACTION)).ok_or(code::INVALID_SYNC_REACTION)?;
+    Ok(SyncRequest {
+        enabled: [
+            q::ENABLE_SYNC_TOOL,
+            q::ENABLE_SYNC_FRAME,
+            q::ENABLE_SYNC_LOAD,
+            q::ENABLE_SYNC_SW_LIMITS,
+            q::ENABLE_SYNC_DEFAULT_DYNAMICS,
+            q::ENABLE_SYNC_REFERENCE_DYNAMICS,
+        ]
+        .map(|f| r.bit(f)),
+        client_in_sync: [
+            q::TOOL_DATA_IN_SYNC_CLIENT,
+            q::FRAME_DATA_IN_SYNC_CLIENT,
+            q::LOAD_DATA_IN_SYNC_CLIENT,
+            q::SW_LIMITS_IN_SYNC_CLIENT,
+            q::DEFAULT_DYNAMICS_IN_SYNC_CLIENT,
+            q::REFERENCE_DYNAMICS_IN_SYNC_CLIENT,
+        ]
+        .map(|f| r.bit(f)),
+        work_area: r.bit(q::ENABLE_SYNC_WORK_AREA),
+        reaction,
+        delay_ms: r.u16(q::SYNC_DELAY),
+    })
+}
 
 /// Whether `level` is a defined MessageLevel or LogLevel (0 = everything).
 fn valid_message_level(level: u8) -> bool {
@@ -64,7 +116,13 @@ impl Server {
         msg: &[u8],
         now: Now,
     ) {
-        let i = self.keep_live(cmd_id, h, LiveKind::Configuration);
+        let i = self.keep_live(
+            cmd_id,
+            h,
+            LiveKind::Configuration {
+                sent: ConfigurationReport::default(),
+            },
+        );
         self.update_exchange_configuration(i, msg, now);
     }
 
@@ -77,12 +135,20 @@ impl Server {
             return;
         }
         let log_level = r.u8(xc::request::LOG_LEVEL);
-        if !valid_message_level(log_level) {
-            self.respond(cmd_id, h, state::ERROR, code::INVALID_MODE, now, |_| {});
+        let refused = if !valid_message_level(log_level) {
+            Some(code::INVALID_MODE)
+        } else {
+            decode_sync_request(&r).err()
+        };
+        if let Some(c) = refused {
+            self.respond(cmd_id, h, state::ERROR, c, now, |_| {});
             return;
         }
-        // Validated: at most 29.
+        // Validated above.
         self.server_log.set_level(log_level as i8);
+        if let Ok(sync) = decode_sync_request(&r) {
+            self.sync_request = sync;
+        }
         let requested = r.u16(xc::request::LIFE_SIGN_TIME_OUT);
         let mut info = 0;
         self.lifesign_timeout_ms = if requested < MIN_LIFESIGN_MS {
@@ -98,28 +164,34 @@ impl Server {
         } else {
             requested
         };
-        let acr = u16::try_from(self.acr.length()).unwrap_or(u16::MAX);
-        let server_logs = self.server_log.count();
+        self.send_configuration(i, info, now);
+    }
+
+    /// What an ExchangeConfiguration response reports that changes during a session.
+    fn configuration_report(&self) -> ConfigurationReport {
         let data = &self.user_data;
-        let change = [
-            (
-                xc::response::CHANGE_INDEX_TOOL,
-                data.change_index(DataSet::Tool),
-            ),
-            (
-                xc::response::CHANGE_INDEX_FRAME,
-                data.change_index(DataSet::Frame),
-            ),
-            (
-                xc::response::CHANGE_INDEX_LOAD,
-                data.change_index(DataSet::Load),
-            ),
-        ];
+        let in_sync = crate::sync::data_in_sync(&self.sync_request, data);
+        ConfigurationReport {
+            in_sync,
+            work_area_in_sync: self.sync_request.work_area,
+            change_index: [DataSet::Tool, DataSet::Frame, DataSet::Load]
+                .map(|set| data.change_index(set)),
+            server_logs: self.server_log.count(),
+        }
+    }
+
+    /// Sends the ACTIVE response of live ExchangeConfiguration `i` with message `info`.
+    fn send_configuration(&mut self, i: usize, info: u16, now: Now) {
+        let report = self.configuration_report();
+        self.live[i].kind = LiveKind::Configuration { sent: report };
+        let cmd_id = self.live[i].cmd_id;
+        let h = self.live_header(i);
+        let acr = u16::try_from(self.acr.length()).unwrap_or(u16::MAX);
         self.respond(cmd_id, h, state::ACTIVE, info, now, |b| {
             let mut w = PayloadWriter::new(b);
             w.set_bit(xc::response::ENABLED, true);
             w.set_u16(xc::response::LENGTH_ACR, acr);
-            w.set_u16(xc::response::NUMBER_OF_SERVER_LOGS, server_logs);
+            w.set_u16(xc::response::NUMBER_OF_SERVER_LOGS, report.server_logs);
             for f in [
                 xc::response::HIGHEST_TOOL_INDEX,
                 xc::response::HIGHEST_FRAME_INDEX,
@@ -127,10 +199,32 @@ impl Server {
             ] {
                 w.set_u8(f, HIGHEST_INDEX);
             }
-            for (f, index) in change {
+            let change = [
+                xc::response::CHANGE_INDEX_TOOL,
+                xc::response::CHANGE_INDEX_FRAME,
+                xc::response::CHANGE_INDEX_LOAD,
+            ];
+            for (f, index) in change.into_iter().zip(report.change_index) {
                 w.set_u8(f, index);
             }
+            for (f, in_sync) in DATA_IN_SYNC.into_iter().zip(report.in_sync) {
+                w.set_bit(f, in_sync);
+            }
+            w.set_bit(xc::response::WORK_AREA, report.work_area_in_sync);
         });
+    }
+
+    /// Re-sends ExchangeConfiguration when DataInSync, a ChangeIndex or the number of server
+    /// logs changed, so that the PLC sees it without asking.
+    pub(crate) fn refresh_configuration(&mut self, now: Now) {
+        let report = self.configuration_report();
+        for i in 0..self.live.len() {
+            if let LiveKind::Configuration { sent } = self.live[i].kind
+                && sent != report
+            {
+                self.send_configuration(i, 0, now);
+            }
+        }
     }
 
     pub(crate) fn read_messages(&mut self, cmd_id: u16, h: CommandHeader, msg: &[u8], now: Now) {
