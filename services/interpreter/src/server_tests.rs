@@ -336,9 +336,9 @@ fn unsupported_command_is_answered_8f11_once_per_sequence() {
     let mut plc = Plc::new(256);
     plc.initialize(&mut server);
     let msg = request(
-        t::move_linear_absolute::TYPE,
+        t::move_circular_absolute::TYPE,
         0,
-        t::move_linear_absolute::request::LEN,
+        t::move_circular_absolute::request::LEN,
     );
     plc.command(&mut server, 1, NEW, &msg);
     let responses: Vec<_> = plc.responses.iter().filter(|(id, _)| *id == 1).collect();
@@ -378,7 +378,7 @@ fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
     {
         assert!(supported::announces(&map, ty), "type {ty} announced");
     }
-    assert!(!supported::announces(&map, t::move_linear_absolute::TYPE));
+    assert!(!supported::announces(&map, t::move_circular_absolute::TYPE));
     assert!(!supported::announces(&map, t::return_to_primary::TYPE));
     let (byte, bit) = supported::CYCLIC_POSITION;
     assert_ne!(

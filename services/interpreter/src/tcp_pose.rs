@@ -70,6 +70,22 @@ pub fn tcp_pose(
     Ok((tool_no, frame_no, to_wire(&frame_tcp)))
 }
 
+/// The TCP of tool `tool` (255 = the one in use) in the flange frame: m and rad
+/// (R = Rz·Ry·Rx), as the planner takes it; or the code that refuses the index.
+pub fn tool_offset(data: &UserData, tool: u8) -> Result<[f64; 6], u16> {
+    let (_, entry) = data.read_tool(tool)?;
+    Ok(pose::pose(&from_wire(entry.data.pose.map(f64::from))))
+}
+
+/// A target given in frame `frame` (255 = the one in use; mm and degrees) in the world
+/// frame: m and rad (R = Rz·Ry·Rx), as the planner takes it; or the code that refuses the
+/// index.
+pub fn world_target(data: &UserData, frame: u8, target: WirePose) -> Result<[f64; 6], u16> {
+    let (frame_no, _) = data.read_frame(frame)?;
+    let world_frame = world_to_frame(data, frame_no)?;
+    Ok(pose::pose(&(world_frame * from_wire(target))))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

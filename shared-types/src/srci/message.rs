@@ -166,6 +166,7 @@ pub mod code {
     pub const INVALID_JOINT_POSITION: u16 = 0x8D13;
     pub const INVALID_LIFESIGN_TIMEOUT: u16 = 0x8D14;
     pub const INVALID_MODE: u16 = 0x8D21;
+    pub const INVALID_ORI_MODE: u16 = 0x8D22;
     pub const INVALID_OVERRIDE: u16 = 0x8D23;
     /// Cartesian position invalid (not a number).
     pub const INVALID_POSITION: u16 = 0x8D24;
@@ -182,6 +183,7 @@ pub mod code {
     pub const FRAME_NOT_EXISTING: u16 = 0x8D70;
     pub const DECELERATION_RATE_NOT_SUPPORTED: u16 = 0x8E03;
     pub const BLENDING_MODE_NOT_SUPPORTED: u16 = 0x8E05;
+    pub const ORI_MODE_NOT_SUPPORTED: u16 = 0x8E08;
     pub const STEP_MODE_NOT_SUPPORTED: u16 = 0x8E16;
     pub const INVALID_EXECUTION_MODE: u16 = 0x8F10;
     pub const NOT_IMPLEMENTED: u16 = 0x8F11;

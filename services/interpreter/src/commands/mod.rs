@@ -20,7 +20,7 @@ use crate::server::{Effects, Now, Server};
 
 /// Command types this interpreter implements; RCSupportedFunctions announces exactly these.
 /// ReadActualPositionCyclic has no command type and is not offered yet.
-pub const IMPLEMENTED: [u16; 27] = [
+pub const IMPLEMENTED: [u16; 28] = [
     t::read_robot_data::TYPE,
     t::exchange_configuration::TYPE,
     t::read_messages::TYPE,
@@ -28,6 +28,7 @@ pub const IMPLEMENTED: [u16; 27] = [
     t::group_reset::TYPE,
     t::move_axes_absolute::TYPE,
     t::move_direct_absolute::TYPE,
+    t::move_linear_absolute::TYPE,
     t::read_actual_position::TYPE,
     t::change_speed_override::TYPE,
     t::group_stop::TYPE,
@@ -108,9 +109,9 @@ pub fn describe(code: u16) -> &'static str {
         code::INVALID_ACCELERATION_RATE => "AccelerationRate out of range 0..100 %",
         code::INVALID_VELOCITY_RATE => "VelocityRate out of range 0..100 %",
         code::INVALID_JERK_RATE => "JerkRate out of range 0..100 %",
-        code::DECELERATION_RATE_NOT_SUPPORTED => {
-            "DecelerationRate other than the default is not supported yet"
-        }
+        code::INVALID_DECELERATION_RATE => "DecelerationRate out of range 0..100 %",
+        code::INVALID_ORI_MODE => "OriMode is not a defined value (1..4)",
+        code::ORI_MODE_NOT_SUPPORTED => "OriMode not supported for this move",
         code::INVALID_BLENDING_MODE => "BlendingMode is not a defined value",
         code::BLENDING_MODE_NOT_SUPPORTED => "BlendingMode not supported yet (exact stop only)",
         code::INVALID_JOINT_POSITION => "joint position is not a finite number",
@@ -125,8 +126,8 @@ pub fn describe(code: u16) -> &'static str {
         code::JOG_BOTH_DIRECTIONS => "positive and negative jog direction at the same time",
         code::INVALID_INCREMENTAL_ROTATION => "IncrementalRotation must be a number >= 0",
         code::INVALID_TIME => "move cannot be done in the requested time",
-        code::TOOL_NOT_EXISTING => "ToolNo does not exist (only 0 and -1 so far)",
-        code::FRAME_NOT_EXISTING => "FrameNo does not exist (only 0 and -1 so far)",
+        code::TOOL_NOT_EXISTING => "ToolNo does not exist",
+        code::FRAME_NOT_EXISTING => "FrameNo does not exist",
         code::INVALID_STEP_MODE => "StepMode is not a defined value",
         code::STEP_MODE_NOT_SUPPORTED => "StepMode not supported yet",
         code::MOTION_ERROR => "motion error: the move was stopped",
@@ -167,7 +168,9 @@ impl Server {
         }
         self.live.retain(|l| l.cmd_id != cmd_id);
         let mode_ok = match h.command_type {
-            t::move_axes_absolute::TYPE | t::move_direct_absolute::TYPE => matches!(
+            t::move_axes_absolute::TYPE
+            | t::move_direct_absolute::TYPE
+            | t::move_linear_absolute::TYPE => matches!(
                 h.execution_mode,
                 execution_mode::SEQUENCE_PRIMARY | execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
             ),
@@ -197,9 +200,9 @@ impl Server {
             t::enable_robot::TYPE => self.enable_robot(cmd_id, h, msg, now, fx),
             t::group_reset::TYPE => self.group_reset(cmd_id, h, now, fx),
             t::read_actual_position::TYPE => self.read_actual_position(cmd_id, h, msg, now),
-            t::move_axes_absolute::TYPE | t::move_direct_absolute::TYPE => {
-                self.move_command(cmd_id, h, msg, now, fx)
-            }
+            t::move_axes_absolute::TYPE
+            | t::move_direct_absolute::TYPE
+            | t::move_linear_absolute::TYPE => self.move_command(cmd_id, h, msg, now, fx),
             t::change_speed_override::TYPE => self.change_speed_override(cmd_id, h, msg, now, fx),
             t::group_stop::TYPE => self.group_motion(cmd_id, h, MotionCommandKind::Stop, now, fx),
             t::group_interrupt::TYPE => {

@@ -6,14 +6,14 @@ use shared_types::srci::message::{CommandHeader, Percent, code, execution_mode, 
 use shared_types::srci::payload::{Field, PayloadReader, PayloadWriter};
 use shared_types::srci::tables::{
     change_speed_override as cso, group_reset as gr, group_stop as gs, move_axes_absolute as maa,
-    move_direct_absolute as mda,
+    move_direct_absolute as mda, move_linear_absolute as mla,
 };
 
 use super::LiveKind;
 use crate::motion_link::JobUpdate;
 use crate::server::{Effects, Now, Server};
-use crate::user_data::CURRENT_INDEX;
-use crate::user_data::{DefaultRates, SwLimitsRad};
+use crate::tcp_pose;
+use crate::user_data::UserData;
 
 /// "0 %: use internal minimal velocity".
 const MIN_RATE: f64 = 1.0;
@@ -51,25 +51,70 @@ const MOVE_AXES: MoveLayout = MoveLayout {
     time: maa::request::TIME,
 };
 
-const MOVE_DIRECT: MoveLayout = MoveLayout {
-    velocity: mda::request::VELOCITY_RATE,
-    acceleration: mda::request::ACCELERATION_RATE,
-    deceleration: mda::request::DECELERATION_RATE,
-    jerk: mda::request::JERK_RATE,
-    tool: mda::request::TOOL_NO,
-    blending_mode: mda::request::BLENDING_MODE,
-    time: mda::request::TIME,
+/// Where the Cartesian target sits in the request table of a Cartesian move.
+struct CartesianLayout {
+    common: MoveLayout,
+    frame: Field,
+    position: [Field; 6],
+    shoulder: Field,
+    elbow: Field,
+    wrist: Field,
+    turn_number: Field,
+    config_mode: Field,
+    turn_mode: Field,
+}
+
+const MOVE_DIRECT: CartesianLayout = CartesianLayout {
+    common: MoveLayout {
+        velocity: mda::request::VELOCITY_RATE,
+        acceleration: mda::request::ACCELERATION_RATE,
+        deceleration: mda::request::DECELERATION_RATE,
+        jerk: mda::request::JERK_RATE,
+        tool: mda::request::TOOL_NO,
+        blending_mode: mda::request::BLENDING_MODE,
+        time: mda::request::TIME,
+    },
+    frame: mda::request::FRAME_NO,
+    position: mda::request::POSITION_X_RZ,
+    shoulder: mda::request::SHOULDER,
+    elbow: mda::request::ELBOW,
+    wrist: mda::request::WRIST,
+    turn_number: mda::request::POSITION_TURN_NUMBER,
+    config_mode: mda::request::CONFIG_MODE,
+    turn_mode: mda::request::TURN_MODE,
+};
+
+const MOVE_LINEAR: CartesianLayout = CartesianLayout {
+    common: MoveLayout {
+        velocity: mla::request::VELOCITY_RATE,
+        acceleration: mla::request::ACCELERATION_RATE,
+        deceleration: mla::request::DECELERATION_RATE,
+        jerk: mla::request::JERK_RATE,
+        tool: mla::request::TOOL_NO,
+        blending_mode: mla::request::BLENDING_MODE,
+        time: mla::request::TIME,
+    },
+    frame: mla::request::FRAME_NO,
+    position: mla::request::POSITION_X_RZ,
+    shoulder: mla::request::SHOULDER,
+    elbow: mla::request::ELBOW,
+    wrist: mla::request::WRIST,
+    turn_number: mla::request::POSITION_TURN_NUMBER,
+    config_mode: mla::request::CONFIG_MODE,
+    turn_mode: mla::request::TURN_MODE,
 };
 
 /// Checks what every move shares (rates, tool, blending, time, execution mode) and returns a
-/// planner command of `kind` with them; rates left at default take the default dynamics.
+/// planner command of `kind` with them, the tool's TCP included; rates left at default take
+/// the default dynamics.
 fn decode_move(
     r: &PayloadReader<'_>,
     layout: &MoveLayout,
     h: CommandHeader,
     kind: MotionCommandKind,
-    defaults: DefaultRates,
+    data: &UserData,
 ) -> Result<MotionCommand, u16> {
+    let defaults = data.default_rates();
     let velocity = rate(
         r.u16(layout.velocity),
         defaults.velocity,
@@ -80,14 +125,13 @@ fn decode_move(
         defaults.acceleration,
         code::INVALID_ACCELERATION_RATE,
     )?;
-    if r.u16(layout.deceleration) != 0xFFFF {
-        return Err(code::DECELERATION_RATE_NOT_SUPPORTED);
-    }
+    let deceleration = rate(
+        r.u16(layout.deceleration),
+        defaults.deceleration,
+        code::INVALID_DECELERATION_RATE,
+    )?;
     let jerk = rate(r.u16(layout.jerk), defaults.jerk, code::INVALID_JERK_RATE)?;
-    let tool = r.u8(layout.tool);
-    if tool != 0 && tool != CURRENT_INDEX {
-        return Err(code::TOOL_NOT_EXISTING);
-    }
+    let tool = tcp_pose::tool_offset(data, r.u8(layout.tool))?;
     match r.u8(layout.blending_mode) {
         0 => {}
         2 | 3 | 4 | 10 | 11 | 12 => return Err(code::BLENDING_MODE_NOT_SUPPORTED),
@@ -97,21 +141,19 @@ fn decode_move(
     c.aborting = h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY;
     c.velocity_scale = velocity;
     c.acceleration_scale = acceleration;
+    c.deceleration_scale = deceleration;
     c.jerk_scale = jerk;
     c.duration_s = f64::from(r.u16(layout.time)) / 1000.0;
+    c.tool = tool;
     Ok(c)
 }
 
 /// Checks a MoveAxesAbsolute request and turns it into a planner command; targets must lie
 /// within the SW limits.
-fn decode_move_axes(
-    msg: &[u8],
-    h: CommandHeader,
-    defaults: DefaultRates,
-    limits: SwLimitsRad,
-) -> Result<MotionCommand, u16> {
+fn decode_move_axes(msg: &[u8], h: CommandHeader, data: &UserData) -> Result<MotionCommand, u16> {
     let r = PayloadReader::new(msg);
-    let mut c = decode_move(&r, &MOVE_AXES, h, MotionCommandKind::MoveAxes, defaults)?;
+    let limits = data.sw_limits_rad();
+    let mut c = decode_move(&r, &MOVE_AXES, h, MotionCommandKind::MoveAxes, data)?;
     for (i, (q, f)) in c
         .joints_rad
         .iter_mut()
@@ -135,47 +177,48 @@ fn decode_move_axes(
     Ok(c)
 }
 
-/// Checks a MoveDirectAbsolute request and turns it into a planner command: the flange pose
-/// in m and rad, with the configuration, turns and their modes (the planner solves the IK).
-fn decode_move_direct(
+/// Checks a MoveDirectAbsolute or MoveLinearAbsolute request and turns it into a planner
+/// command: the TCP target in the world frame (m and rad) through the chain of the given
+/// frame, the tool, the configuration, turns and their modes (the planner solves the IK).
+fn decode_cartesian_move(
     msg: &[u8],
     h: CommandHeader,
-    defaults: DefaultRates,
+    data: &UserData,
+    layout: &CartesianLayout,
+    kind: MotionCommandKind,
 ) -> Result<MotionCommand, u16> {
     let r = PayloadReader::new(msg);
-    let mut c = decode_move(&r, &MOVE_DIRECT, h, MotionCommandKind::MoveDirect, defaults)?;
-    let frame = r.u8(mda::request::FRAME_NO);
-    if frame != 0 && frame != CURRENT_INDEX {
-        return Err(code::FRAME_NOT_EXISTING);
-    }
-    for (i, (v, f)) in c
-        .pose
-        .iter_mut()
-        .zip(mda::request::POSITION_X_RZ)
-        .enumerate()
-    {
-        let wire = f64::from(r.f32(f));
+    let mut c = decode_move(&r, &layout.common, h, kind, data)?;
+    let mut target = [0.0; 6];
+    for (v, f) in target.iter_mut().zip(layout.position) {
+        let wire = r.f32(f);
         if !wire.is_finite() {
             return Err(code::INVALID_POSITION);
         }
-        *v = if i < 3 {
-            wire / 1000.0
-        } else {
-            wire.to_radians()
-        };
+        *v = f64::from(wire);
     }
-    c.arm_config = r.u8(mda::request::SHOULDER)
-        | r.u8(mda::request::ELBOW) << 1
-        | r.u8(mda::request::WRIST) << 2;
-    c.turn_numbers = core::array::from_fn(|i| r.u8(mda::request::POSITION_TURN_NUMBER.element(i)));
+    c.pose = tcp_pose::world_target(data, r.u8(layout.frame), target)?;
+    c.arm_config = r.u8(layout.shoulder) | r.u8(layout.elbow) << 1 | r.u8(layout.wrist) << 2;
+    c.turn_numbers = core::array::from_fn(|i| r.u8(layout.turn_number.element(i)));
     let modes = [
-        r.u8(mda::request::CONFIG_MODE.element(0)),
-        r.u8(mda::request::CONFIG_MODE.element(1)),
+        r.u8(layout.config_mode.element(0)),
+        r.u8(layout.config_mode.element(1)),
     ];
     // [0] low nibble shoulder, high nibble elbow; [1] low nibble wrist. The planner rejects
     // undefined values with their codes.
     c.config_modes = [modes[0] & 0x0F, modes[0] >> 4, modes[1] & 0x0F];
-    c.turn_mode = r.u8(mda::request::TURN_MODE);
+    c.turn_mode = r.u8(layout.turn_mode);
+    Ok(c)
+}
+
+/// Checks a MoveLinearAbsolute request: a Cartesian move with its OriMode (0 is taken as
+/// the standard, LINEAR_INTERPOLATED).
+fn decode_move_linear(msg: &[u8], h: CommandHeader, data: &UserData) -> Result<MotionCommand, u16> {
+    let mut c = decode_cartesian_move(msg, h, data, &MOVE_LINEAR, MotionCommandKind::MoveLinear)?;
+    c.ori_mode = match PayloadReader::new(msg).u8(mla::request::ORI_MODE) {
+        m @ 0..=4 => m,
+        _ => return Err(code::INVALID_ORI_MODE),
+    };
     Ok(c)
 }
 
@@ -183,7 +226,13 @@ fn decode_move_direct(
 /// latter also carries RemainingDistance, which joint-interpolated moves do not track:
 /// -1 means "no valid value", 0 "target reached".
 fn write_progress(w: &mut PayloadWriter<'_>, command_type: u16, progress: u16) {
-    if command_type == mda::TYPE {
+    // MoveLinearAbsolute answers in the layout of MoveDirectAbsolute.
+    const _: () = assert!(
+        mda::response::PROGRESS.offset == mla::response::PROGRESS.offset
+            && mda::response::REMAINING_DISTANCE.offset == mla::response::REMAINING_DISTANCE.offset
+            && mda::response::LEN == mla::response::LEN
+    );
+    if matches!(command_type, mda::TYPE | mla::TYPE) {
         w.set_u16(mda::response::PROGRESS, progress);
         let remaining = if progress == 10_000 { 0.0 } else { -1.0 };
         w.set_f32(mda::response::REMAINING_DISTANCE, remaining);
@@ -193,7 +242,8 @@ fn write_progress(w: &mut PayloadWriter<'_>, command_type: u16, progress: u16) {
 }
 
 impl Server {
-    /// MoveAxesAbsolute and MoveDirectAbsolute: checked, then handed to the planner.
+    /// MoveAxesAbsolute, MoveDirectAbsolute and MoveLinearAbsolute: checked, then handed to
+    /// the planner.
     pub(crate) fn move_command(
         &mut self,
         cmd_id: u16,
@@ -202,15 +252,19 @@ impl Server {
         now: Now,
         fx: &mut Effects,
     ) {
-        let defaults = self.user_data.default_rates();
+        let data = &self.user_data;
         let checked = if self.error_pending {
             Err(code::DISABLED_DUE_TO_ERROR)
         } else if !self.drives_enabled() {
             Err(code::ROBOT_DISABLED)
-        } else if h.command_type == mda::TYPE {
-            decode_move_direct(msg, h, defaults)
         } else {
-            decode_move_axes(msg, h, defaults, self.user_data.sw_limits_rad())
+            match h.command_type {
+                mda::TYPE => {
+                    decode_cartesian_move(msg, h, data, &MOVE_DIRECT, MotionCommandKind::MoveDirect)
+                }
+                mla::TYPE => decode_move_linear(msg, h, data),
+                _ => decode_move_axes(msg, h, data),
+            }
         };
         match checked {
             Ok(command) => self.submit_job(cmd_id, h, command, now, fx),
@@ -330,7 +384,7 @@ impl Server {
         self.respond(u.cmd_id, h, u.state, u.code, now, |b| {
             let mut w = PayloadWriter::new(b);
             match command_type {
-                maa::TYPE | mda::TYPE => write_progress(&mut w, command_type, progress),
+                maa::TYPE | mda::TYPE | mla::TYPE => write_progress(&mut w, command_type, progress),
                 gs::TYPE => w.set_i8(gs::response::ABORTED_SEQUENCE, aborted_sequence),
                 _ => {}
             }
@@ -375,7 +429,7 @@ impl Server {
         let cmd_id = self.live[i].cmd_id;
         let h = self.live_header(i);
         let command_type = self.live[i].command_type;
-        if matches!(command_type, maa::TYPE | mda::TYPE) {
+        if matches!(command_type, maa::TYPE | mda::TYPE | mla::TYPE) {
             self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
                 write_progress(&mut PayloadWriter::new(b), command_type, now_progress);
             });
@@ -399,18 +453,33 @@ mod tests {
         b
     }
 
+    /// Factory user data with SW limits of at most ±3 rad and `rates` as the default
+    /// dynamics.
+    fn user_data(rates: u16) -> UserData {
+        use crate::user_data::{DefaultDynamicsRequest, RobotBounds, SwLimits};
+        let cfg = shared_types::config::Config::load(None).unwrap();
+        let bounds = RobotBounds::of(&cfg.robot).0;
+        let limit = 3f64.to_degrees();
+        let limits = SwLimits {
+            lower_deg: bounds.joint_min_deg.map(|m| m.max(-limit) as f32),
+            upper_deg: bounds.joint_max_deg.map(|m| m.min(limit) as f32),
+        };
+        let mut data = UserData::factory(bounds);
+        data.write_sw_limits(Default::default(), Some(limits))
+            .unwrap();
+        let rates = DefaultDynamicsRequest {
+            velocity_rate: rates,
+            acceleration_rate: rates,
+            deceleration_rate: rates,
+            jerk_rate: rates,
+        };
+        data.write_default_dynamics(Default::default(), rates)
+            .unwrap();
+        data
+    }
+
     fn decode(msg: &[u8], h: CommandHeader) -> Result<MotionCommand, u16> {
-        let defaults = DefaultRates {
-            velocity: 50.0,
-            acceleration: 50.0,
-            deceleration: 50.0,
-            jerk: 100.0,
-        };
-        let limits = SwLimitsRad {
-            lower: [-3.0; 6],
-            upper: [3.0; 6],
-        };
-        decode_move_axes(msg, h, defaults, limits)
+        decode_move_axes(msg, h, &user_data(5_000))
     }
 
     fn header(mode: u8) -> CommandHeader {
@@ -427,14 +496,27 @@ mod tests {
         let c = decode(&request(|_| {}), header(0)).unwrap();
         assert!((c.joints_rad[1] - core::f64::consts::FRAC_PI_2).abs() < 1e-6);
         assert_eq!(c.velocity_scale, 0.5);
+        assert_eq!(c.deceleration_scale, 0.5);
         assert!(!c.aborting);
+        let decelerating = decode(
+            &request(|w| w.set_u16(maa::request::DECELERATION_RATE, 2_500)),
+            header(0),
+        )
+        .unwrap();
+        assert_eq!(
+            (
+                decelerating.acceleration_scale,
+                decelerating.deceleration_scale
+            ),
+            (0.5, 0.25)
+        );
         assert!(decode(&request(|_| {}), header(1)).unwrap().aborting);
     }
 
     #[test]
     fn rejects_out_of_range_parameters_with_their_codes() {
         type Edit = fn(&mut PayloadWriter);
-        let cases: [(Edit, u16); 8] = [
+        let cases: [(Edit, u16); 9] = [
             (
                 |w| w.set_f32(maa::request::JOINT_POSITION_J1, 200.0),
                 code::SW_LIMIT_UPPER,
@@ -452,8 +534,8 @@ mod tests {
                 code::INVALID_ACCELERATION_RATE,
             ),
             (
-                |w| w.set_u16(maa::request::DECELERATION_RATE, 5_000),
-                code::DECELERATION_RATE_NOT_SUPPORTED,
+                |w| w.set_u16(maa::request::DECELERATION_RATE, 10_001),
+                code::INVALID_DECELERATION_RATE,
             ),
             (
                 |w| w.set_u8(maa::request::BLENDING_MODE, 3),
@@ -467,6 +549,10 @@ mod tests {
                 |w| w.set_f32(maa::request::JOINT_POSITION_J1, f32::NAN),
                 code::INVALID_JOINT_POSITION,
             ),
+            (
+                |w| w.set_u8(maa::request::TOOL_NO, 16),
+                code::INVALID_TOOL_NO,
+            ),
         ];
         for (edit, expected) in cases {
             assert_eq!(decode(&request(edit), header(0)).unwrap_err(), expected);
@@ -477,17 +563,7 @@ mod tests {
     fn a_zero_default_rate_means_minimal_velocity_too() {
         // Found by fuzzing: WriteRobotDefaultDynamics with 0 % made default-rate moves
         // reach the planner with a velocity scale of 0.
-        let defaults = DefaultRates {
-            velocity: 0.0,
-            acceleration: 0.0,
-            deceleration: 0.0,
-            jerk: 0.0,
-        };
-        let limits = SwLimitsRad {
-            lower: [-3.0; 6],
-            upper: [3.0; 6],
-        };
-        let c = decode_move_axes(&request(|_| {}), header(0), defaults, limits).unwrap();
+        let c = decode_move_axes(&request(|_| {}), header(0), &user_data(0)).unwrap();
         assert_eq!(
             (c.velocity_scale, c.acceleration_scale, c.jerk_scale),
             (0.01, 0.01, 0.01)
@@ -502,5 +578,83 @@ mod tests {
         )
         .unwrap();
         assert_eq!(c.velocity_scale, 0.01);
+    }
+}
+
+#[cfg(test)]
+mod cartesian_tests {
+    use super::*;
+    use crate::user_data::{FrameData, RobotBounds, ToolData};
+
+    fn header() -> CommandHeader {
+        CommandHeader {
+            command_type: mla::TYPE,
+            execution_mode: 0,
+            par_seq: 1,
+            priority: 3,
+        }
+    }
+
+    fn linear(edit: impl FnOnce(&mut PayloadWriter)) -> Vec<u8> {
+        let mut b = vec![0u8; mla::request::LEN];
+        let mut w = PayloadWriter::new(&mut b);
+        for f in [
+            mla::request::VELOCITY_RATE,
+            mla::request::ACCELERATION_RATE,
+            mla::request::DECELERATION_RATE,
+            mla::request::JERK_RATE,
+        ] {
+            w.set_u16(f, 0xFFFF);
+        }
+        w.set_u8(mla::request::ORI_MODE, 1);
+        for (f, v) in mla::request::POSITION_X_RZ
+            .into_iter()
+            .zip([400.0, 0.0, 300.0, 180.0, 0.0, 0.0])
+        {
+            w.set_f32(f, v);
+        }
+        edit(&mut w);
+        b
+    }
+
+    #[test]
+    fn a_target_in_a_user_frame_reaches_the_planner_in_the_world_with_the_tool() {
+        let cfg = shared_types::config::Config::load(None).unwrap();
+        let mut data = UserData::factory(RobotBounds::of(&cfg.robot).0);
+        // Frame 2: 100 mm along world X, turned 90° about Z. Tool 3: 150 mm along flange Z.
+        let frame = FrameData {
+            pose: [100.0, 0.0, 0.0, 0.0, 0.0, 90.0],
+            ..Default::default()
+        };
+        data.write_frame(2, Default::default(), frame).unwrap();
+        let tool = ToolData {
+            pose: [0.0, 0.0, 150.0, 0.0, 0.0, 0.0],
+            ..Default::default()
+        };
+        data.write_tool(3, Default::default(), tool, false).unwrap();
+        let msg = linear(|w| {
+            w.set_u8(mla::request::FRAME_NO, 2);
+            w.set_u8(mla::request::TOOL_NO, 3);
+        });
+        let c = decode_move_linear(&msg, header(), &data).unwrap();
+        assert_eq!(c.kind, MotionCommandKind::MoveLinear as u8);
+        assert_eq!(c.ori_mode, 1);
+        // (400, 0) in the frame is (100, 400) in the world.
+        let expected = [0.1, 0.4, 0.3];
+        for (a, b) in c.pose.iter().zip(expected) {
+            assert!((a - b).abs() < 1e-6, "{:?}", c.pose);
+        }
+        assert!((c.tool[2] - 0.15).abs() < 1e-9, "{:?}", c.tool);
+
+        let undefined = linear(|w| w.set_u8(mla::request::ORI_MODE, 5));
+        assert_eq!(
+            decode_move_linear(&undefined, header(), &data).unwrap_err(),
+            code::INVALID_ORI_MODE
+        );
+        let no_frame = linear(|w| w.set_u8(mla::request::FRAME_NO, 40));
+        assert_eq!(
+            decode_move_linear(&no_frame, header(), &data).unwrap_err(),
+            code::INVALID_FRAME_NO
+        );
     }
 }
