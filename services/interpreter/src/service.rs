@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use shared_types::bus::{self, Bus, BusError};
 use shared_types::config::Config;
+use shared_types::health::{HealthReporter, Service};
 use shared_types::ipc::{
     LinkEvent, MotionCommand, MotionStatus, PlcTelegram, RobotTelegram, ServoControl,
     ServoFeedback, TELEGRAM_CAPACITY, topics,
@@ -50,6 +51,8 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
     let feedback = bus.subscriber::<ServoFeedback>(topics::SERVO_FEEDBACK)?;
     let control = bus.publisher::<ServoControl>(topics::SERVO_CONTROL)?;
     shared_types::supervision::ready();
+    let reply_timeout_ns = config.main.fieldbus.reply_timeout_ms * 1_000_000;
+    let mut health = HealthReporter::new(&bus, Service::Interpreter, reply_timeout_ns)?;
 
     let issuer = now().unix_ms ^ (u64::from(std::process::id()) << 40);
     let data_dir = config.main.data_dir();
@@ -85,6 +88,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
 
     while !shutdown.load(Ordering::Relaxed) {
         shared_types::supervision::beat();
+        health.beat()?;
         bus::wait_for_wakeup(&telegram_wakeup, POLL_INTERVAL)?;
         let t = now();
         if let Some(s) = bus::receive_latest(&status)? {
@@ -106,6 +110,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
             drop(sample);
             match LinkEvent::from_wire(request.event) {
                 LinkEvent::Telegram => {
+                    health.record(request.received_ns);
                     let n = server.on_telegram(t, request.telegram(), &mut answer.bytes, &mut fx);
                     answer.counter = request.counter;
                     answer.connection = request.connection;

@@ -89,14 +89,24 @@ pub struct LoadData {
 }
 
 /// Rates a move uses when it leaves its own at "default" (0xFFFF), percent × 100 as on the
-/// wire. The planner decelerates as it accelerates, so DecelerationRate is the acceleration
-/// rate and not stored.
+/// wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DefaultDynamics {
     pub velocity_rate: u16,
     pub acceleration_rate: u16,
+    /// Files written before the deceleration had a rate of its own lack it: they load with
+    /// [`UNSET_RATE`], which the loader replaces by the acceleration rate they meant.
+    #[serde(default = "unset_rate")]
+    pub deceleration_rate: u16,
     pub jerk_rate: u16,
+}
+
+/// A rate missing from a stored file.
+pub const UNSET_RATE: u16 = 0xFFFF;
+
+fn unset_rate() -> u16 {
+    UNSET_RATE
 }
 
 /// The TCP dynamics that 100 % of a rate means for Cartesian moves.

@@ -389,6 +389,28 @@ mod tests {
     }
 
     #[test]
+    fn a_file_from_before_the_deceleration_rate_loads_with_the_acceleration_rate() {
+        let dir = folder("old-default-dynamics");
+        let robot = robot();
+        saved(&dir, &robot);
+        let file = dir.join(FILE_NAME);
+        let text = fs::read_to_string(&file).unwrap();
+        let old: String = text
+            .lines()
+            .filter(|l| !l.starts_with("deceleration_rate"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert_ne!(old, text, "the file has a deceleration rate to remove");
+        fs::write(&file, old).unwrap();
+        let (loaded, warnings) = UserData::load(&dir, &robot);
+        assert!(warnings.is_empty(), "{warnings:?}");
+        let rates = loaded.default_rates();
+        assert_eq!(rates.deceleration, rates.acceleration);
+        assert!(!loaded.data_changed(DataSet::DefaultDynamics));
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn the_saver_writes_the_newest_data_and_reports_failures() {
         let dir = folder("saver");
         let robot = robot();

@@ -77,20 +77,16 @@ pub(super) fn check_load(l: &LoadData, bounds: &RobotBounds) -> Result<(), u16> 
     Ok(())
 }
 
-/// `deceleration` is the DecelerationRate asked for; the planner decelerates with the
-/// acceleration rate, so only that value is possible.
-pub(super) fn check_default_dynamics(d: &DefaultDynamics, deceleration: u16) -> Result<(), u16> {
+/// Every rate within 0..=100 %.
+pub(super) fn check_default_dynamics(d: &DefaultDynamics) -> Result<(), u16> {
     if d.velocity_rate > FULL_RATE {
         return Err(code::INVALID_VELOCITY_RATE);
     }
     if d.acceleration_rate > FULL_RATE {
         return Err(code::INVALID_ACCELERATION_RATE);
     }
-    if deceleration > FULL_RATE {
+    if d.deceleration_rate > FULL_RATE {
         return Err(code::INVALID_DECELERATION_RATE);
-    }
-    if deceleration != d.acceleration_rate {
-        return Err(code::DECELERATION_RATE_NOT_SUPPORTED);
     }
     if d.jerk_rate > FULL_RATE {
         return Err(code::INVALID_JERK_RATE);
@@ -203,19 +199,20 @@ mod tests {
     }
 
     #[test]
-    fn default_dynamics_rates_up_to_100_percent_and_deceleration_as_acceleration() {
+    fn default_dynamics_rates_up_to_100_percent() {
         let d = DefaultDynamics {
             velocity_rate: 10_000,
             acceleration_rate: 2_000,
+            deceleration_rate: 3_000,
             jerk_rate: 0,
         };
-        assert_eq!(check_default_dynamics(&d, 2_000), Ok(()));
+        assert_eq!(check_default_dynamics(&d), Ok(()));
+        let too_fast = DefaultDynamics {
+            deceleration_rate: 10_001,
+            ..d
+        };
         assert_eq!(
-            check_default_dynamics(&d, 3_000),
-            Err(code::DECELERATION_RATE_NOT_SUPPORTED)
-        );
-        assert_eq!(
-            check_default_dynamics(&d, 10_001),
+            check_default_dynamics(&too_fast),
             Err(code::INVALID_DECELERATION_RATE)
         );
         let cases = [
@@ -227,9 +224,10 @@ mod tests {
             let d = DefaultDynamics {
                 velocity_rate: v,
                 acceleration_rate: a,
+                deceleration_rate: a,
                 jerk_rate: j,
             };
-            assert_eq!(check_default_dynamics(&d, a), Err(expected));
+            assert_eq!(check_default_dynamics(&d), Err(expected));
         }
     }
 

@@ -116,12 +116,12 @@ fn write_timestamp(w: &mut PayloadWriter, t: Timestamp, date: Field, time: Field
     w.set_u32(time, t.time_of_day_ms);
 }
 
-/// VelocityRate, AccelerationRate, DecelerationRate (= AccelerationRate), JerkRate.
+/// VelocityRate, AccelerationRate, DecelerationRate, JerkRate.
 fn write_rates(w: &mut PayloadWriter, fields: [Field; 4], d: DefaultDynamics) {
     let values = [
         d.velocity_rate,
         d.acceleration_rate,
-        d.acceleration_rate,
+        d.deceleration_rate,
         d.jerk_rate,
     ];
     for (f, v) in fields.into_iter().zip(values) {
@@ -548,12 +548,12 @@ mod tests {
                 p::JERK_RATE
             ]
             .map(|f| r.u16(f)),
-            [7_500, 2_000, 2_000, 10_000]
+            [7_500, 2_000, 5_000, 10_000]
         );
         let read = request(rdd::TYPE, rdd::request::LEN, |_| {});
         let b = run(&mut s, &read, rdd::response::LEN, false).unwrap();
         let r = PayloadReader::new(&b);
-        assert_eq!(r.u16(rdd::response::DECELERATION_RATE), 2_000);
+        assert_eq!(r.u16(rdd::response::DECELERATION_RATE), 5_000);
         assert!(!r.bit(rdd::response::DATA_CHANGED));
     }
 

@@ -7,7 +7,7 @@ use shared_types::srci::message::code;
 use super::codes;
 use super::model::{
     CURRENT_INDEX, ChangeIndices, DataSet, DefaultDynamics, Entry, FrameData, HIGHEST_INDEX,
-    LoadData, ReferenceDynamics, Stored, SwLimits, Timestamp, ToolData, USER_ENTRIES,
+    LoadData, ReferenceDynamics, Stored, SwLimits, Timestamp, ToolData, UNSET_RATE, USER_ENTRIES,
 };
 use super::robot::RobotBounds;
 use super::rules;
@@ -16,6 +16,7 @@ use super::rules;
 const FACTORY_DEFAULT_DYNAMICS: DefaultDynamics = DefaultDynamics {
     velocity_rate: 5_000,
     acceleration_rate: 5_000,
+    deceleration_rate: 5_000,
     jerk_rate: rules::FULL_RATE,
 };
 
@@ -196,8 +197,11 @@ impl UserData {
                 mark(DataSet::Frame, &mut s.change_index);
             }
         }
-        let d = s.default_dynamics.data;
-        if rules::check_default_dynamics(&d, d.acceleration_rate).is_err() {
+        let d = &mut s.default_dynamics.data;
+        if d.deceleration_rate == UNSET_RATE {
+            d.deceleration_rate = d.acceleration_rate;
+        }
+        if rules::check_default_dynamics(d).is_err() {
             s.default_dynamics = reset(FACTORY_DEFAULT_DYNAMICS);
             mark(DataSet::DefaultDynamics, &mut s.change_index);
         }
@@ -335,10 +339,10 @@ impl UserData {
         let data = DefaultDynamics {
             velocity_rate: keep(request.velocity_rate, current.velocity_rate),
             acceleration_rate: keep(request.acceleration_rate, current.acceleration_rate),
+            deceleration_rate: keep(request.deceleration_rate, current.deceleration_rate),
             jerk_rate: keep(request.jerk_rate, current.jerk_rate),
         };
-        let deceleration = keep(request.deceleration_rate, data.acceleration_rate);
-        rules::check_default_dynamics(&data, deceleration)?;
+        rules::check_default_dynamics(&data)?;
         self.stored.default_dynamics = Entry::written(timestamp, data);
         self.changed(DataSet::DefaultDynamics);
         Ok(data)
@@ -423,7 +427,7 @@ impl UserData {
         DefaultRates {
             velocity: percent(d.velocity_rate),
             acceleration: percent(d.acceleration_rate),
-            deceleration: percent(d.acceleration_rate),
+            deceleration: percent(d.deceleration_rate),
             jerk: percent(d.jerk_rate),
         }
     }
@@ -673,6 +677,7 @@ mod tests {
             DefaultDynamics {
                 velocity_rate: 8_000,
                 acceleration_rate: FACTORY_DEFAULT_DYNAMICS.acceleration_rate,
+                deceleration_rate: FACTORY_DEFAULT_DYNAMICS.deceleration_rate,
                 jerk_rate: 2_500,
             }
         );
@@ -686,14 +691,19 @@ mod tests {
                 jerk: 25.0,
             }
         );
-        // Deceleration equal to the new acceleration: what a client writes back after a read.
-        assert!(
-            d.write_default_dynamics(STAMP, request(keep, 3_000, 3_000, keep))
-                .is_ok()
+        // The deceleration has a rate of its own.
+        d.write_default_dynamics(STAMP, request(keep, 3_000, 4_000, keep))
+            .unwrap();
+        assert_eq!(
+            (
+                d.default_rates().acceleration,
+                d.default_rates().deceleration
+            ),
+            (30.0, 40.0)
         );
         assert_eq!(
-            d.write_default_dynamics(STAMP, request(keep, 3_000, 4_000, keep)),
-            Err(code::DECELERATION_RATE_NOT_SUPPORTED)
+            d.write_default_dynamics(STAMP, request(keep, keep, 10_001, keep)),
+            Err(code::INVALID_DECELERATION_RATE)
         );
         assert_eq!(
             d.write_default_dynamics(STAMP, request(10_001, keep, keep, keep)),
