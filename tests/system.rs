@@ -24,11 +24,11 @@ fn handshake_enable_and_moves_reach_their_targets() {
     let data = plc.task().robot_data().cloned().expect("ReadRobotData");
     assert!(data.supports(t::move_axes_absolute::TYPE));
     assert!(data.supports(t::enable_robot::TYPE));
+    assert!(data.supports(t::move_linear_absolute::TYPE));
     assert!(
-        !data.supports(t::move_linear_absolute::TYPE),
+        !data.supports(t::move_circular_absolute::TYPE),
         "only what is implemented"
     );
-    assert!(!data.supports(t::return_to_primary::TYPE));
     reset_and_enable(&mut plc);
 
     let start = actual_joints(&mut plc);
@@ -67,9 +67,9 @@ fn unsupported_command_gets_8f11_and_a_message() {
     let s = execute(
         &mut plc,
         &Request::Raw {
-            command_type: t::move_linear_absolute::TYPE,
+            command_type: t::move_circular_absolute::TYPE,
             execution_mode: 0,
-            payload: vec![0; t::move_linear_absolute::request::LEN - 4],
+            payload: vec![0; t::move_circular_absolute::request::LEN - 4],
         },
         Duration::from_secs(5),
     );
@@ -254,6 +254,48 @@ fn group_interrupt_holds_on_the_path_and_group_continue_finishes_the_move() {
     let done = run_until_state(&mut plc, handle, state::DONE, Duration::from_secs(30));
     assert_eq!((done.state, done.code), (state::DONE, 0), "{done:?}");
     assert_eq!(plc.task().status_word() & paused, 0);
+    assert!(max_deviation(actual_joints(&mut plc), target) < 0.01);
+}
+
+#[test]
+fn a_lost_link_is_resumed_and_the_held_move_finishes_after_group_continue() {
+    let c = Controller::start("resume");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    let target = [50.0, 110.0, 60.0, 70.0, -60.0, 60.0];
+    let handle = start_slow_move(&mut plc, target);
+
+    // The PLC's connection drops and a new one comes up (the cable, a switch, the PLC's
+    // communication processor): the robot offers READY_TO_RESUME and the client resumes.
+    plc.reconnect(c.connect());
+    assert!(
+        cycles_until(&mut plc, |t| t.initialized(), Duration::from_secs(5)),
+        "session resumed, TelegramState {}",
+        plc.task().telegram_state()
+    );
+    assert_eq!(plc.task().resumes(), 1, "resumed, not initialized anew");
+    let held = run_until_state(&mut plc, handle, state::INTERRUPTED, Duration::from_secs(5));
+    assert_eq!(
+        (held.state, held.code),
+        (state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT),
+        "the move is still registered and held: {held:?}"
+    );
+    assert!(
+        cycles_until(&mut plc, |t| !t.is_moving(), Duration::from_millis(500)),
+        "the arm stands while the PLC was away"
+    );
+    let standing = actual_joints(&mut plc);
+    plc.run_for(Duration::from_millis(300)).expect("cycles");
+    assert!(
+        max_deviation(standing, actual_joints(&mut plc)) < 1e-3,
+        "nothing moves before GroupContinue"
+    );
+
+    let s = execute(&mut plc, &Request::GroupContinue, Duration::from_secs(5));
+    assert_eq!((s.state, s.code), (state::DONE, 0), "GroupContinue: {s:?}");
+    let done = run_until_state(&mut plc, handle, state::DONE, Duration::from_secs(30));
+    assert_eq!((done.state, done.code), (state::DONE, 0), "{done:?}");
     assert!(max_deviation(actual_joints(&mut plc), target) < 0.01);
 }
 

@@ -109,6 +109,15 @@ impl<T: Transport> CycleRunner<T> {
         }
     }
 
+    /// Continues over a new connection after the old one was lost: the engine resumes its
+    /// session (see [`RobotTask::link_restored`]); the old connection's last reply is
+    /// forgotten.
+    pub fn reconnect(&mut self, transport: T) {
+        self.transport = transport;
+        self.have_rx = false;
+        self.task.link_restored();
+    }
+
     pub fn task(&self) -> &RobotTask {
         &self.task
     }

@@ -340,6 +340,11 @@ pub struct RobotTask {
     msg_to_ack: u8,
     acked_msg_id: u8,
     messages: VecDeque<RobotMessage>,
+
+    /// The phase to return to once the robot accepted RESUME after a lost link.
+    resume_into: Option<Phase>,
+    /// Sessions resumed with RESUME.
+    resumes: u64,
 }
 
 impl RobotTask {
@@ -388,6 +393,8 @@ impl RobotTask {
             msg_to_ack: 0,
             acked_msg_id: 0,
             messages: VecDeque::new(),
+            resume_into: None,
+            resumes: 0,
         })
     }
 
@@ -444,6 +451,29 @@ impl RobotTask {
         self.msg_to_ack = 0;
         self.acked_msg_id = 0;
         tracing::info!("RobotTask restarts the interface");
+    }
+
+    /// The fieldbus link was lost and a new one is up: the commands stay in the register and
+    /// Control follows the TelegramState again, so that the session is resumed (RESUME on
+    /// READY_TO_RESUME) and continues where it was, start-up commands included.
+    pub fn link_restored(&mut self) {
+        if self.in_session() {
+            self.resume_into = Some(self.phase);
+        }
+        self.phase = Phase::Connecting;
+        self.control = Control::None;
+        self.robot = None;
+        self.robot_lifesign_changed_at = self.now;
+        self.last_new_seq_at = self.now;
+        tracing::info!(
+            commands = self.acr.in_use(),
+            "fieldbus link restored: resuming the session"
+        );
+    }
+
+    /// How many times the robot accepted RESUME of this session.
+    pub fn resumes(&self) -> u64 {
+        self.resumes
     }
 
     /// Submits a command; allowed once the interface is initialized.
@@ -722,8 +752,16 @@ impl RobotTask {
                 t::READY_TO_RESUME if self.acr.in_use() > 0 => self.control = Control::Resume,
                 t::READY_TO_RESUME => self.control = Control::Reset,
                 t::READY_FOR_INITIALIZATION => self.control = Control::Initialize,
+                t::INITIALIZED if self.control == Control::Resume => {
+                    self.control = Control::None;
+                    self.resumes += 1;
+                    self.robot_lifesign_changed_at = self.now;
+                    self.last_new_seq_at = self.now;
+                    self.phase = self.resume_into.take().unwrap_or(Phase::Initialized);
+                }
                 t::INITIALIZED => {
                     self.control = Control::None;
+                    self.resume_into = None;
                     let robot = self.robot.map_or(0, |h| h.version.major);
                     let client = SrciVersion::from_byte(self.opts.version).major;
                     if robot == client {

@@ -10,7 +10,7 @@ use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use plc_client::{CommandStatus, CycleRunner, EngineOptions, Request, RobotTask, TcpTransport};
-use shared_types::srci::message::state;
+use shared_types::srci::message::{severity, state};
 
 /// One controller at a time: each runs a 1 kHz servo and planner, and a 2-core machine
 /// shared by several would miss the deadlines these tests check.
@@ -108,13 +108,20 @@ impl Controller {
     }
 
     pub fn client_with(&self, options: EngineOptions) -> CycleRunner<TcpTransport> {
-        let transport = TcpTransport::connect(
+        CycleRunner::new(
+            RobotTask::new(options).expect("engine options"),
+            self.connect(),
+        )
+    }
+
+    /// A new TCP connection to the gateway (it replaces the one the gateway had).
+    pub fn connect(&self) -> TcpTransport {
+        TcpTransport::connect(
             &self.addr,
             Duration::from_secs(2),
             Duration::from_millis(100),
         )
-        .expect("connect to the controller");
-        CycleRunner::new(RobotTask::new(options).expect("engine options"), transport)
+        .expect("connect to the controller")
     }
 
     /// Sends SIGTERM and waits for the exit; returns whether it exited successfully.
@@ -286,3 +293,166 @@ pub fn start_slow_move(
     runner.run_for(Duration::from_millis(300)).expect("moving");
     handle
 }
+
+/// The home position of the simulated arm (degrees).
+pub const HOME: [f64; 6] = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0];
+
+/// A PLC client over the TCP gateway.
+pub type Plc = CycleRunner<TcpTransport>;
+
+/// A controller and a client that has run the SRCI start-up (robot not enabled).
+pub fn initialized(tag: &str) -> (Controller, Plc) {
+    let c = Controller::start(tag);
+    let mut plc = c.client();
+    initialize(&mut plc);
+    (c, plc)
+}
+
+/// A controller and a client that has run the start-up, GroupReset and EnableRobot.
+pub fn enabled(tag: &str) -> (Controller, Plc) {
+    let (c, mut plc) = initialized(tag);
+    reset_and_enable(&mut plc);
+    (c, plc)
+}
+
+/// Executes `request` and expects DONE with code 0 and a response of the spec's `len` bytes.
+pub fn expect_done(plc: &mut Plc, request: &Request, len: usize) -> CommandStatus {
+    let s = execute(plc, request, Duration::from_secs(10));
+    assert_eq!(
+        (s.state, s.severity, s.code),
+        (state::DONE, 0, 0),
+        "{} DONE without a code: {s:?}",
+        request.name()
+    );
+    assert_eq!(
+        s.response.len(),
+        len,
+        "{} response length (spec table)",
+        request.name()
+    );
+    s
+}
+
+/// Executes `request` and expects ERROR with `code` and severity ERROR; ReadMessages must
+/// then deliver a command message with the same code.
+pub fn expect_error(plc: &mut Plc, request: &Request, code: u16) -> CommandStatus {
+    let s = execute(plc, request, Duration::from_secs(10));
+    assert_eq!(
+        (s.state, s.severity, s.code),
+        (state::ERROR, severity::ERROR, code),
+        "{} answered ERROR 0x{code:04X}: {s:?}",
+        request.name()
+    );
+    let m = wait_for_message(plc, code);
+    assert_eq!(
+        (m.msg_type, m.severity),
+        (4, severity::ERROR),
+        "a command error message: {m:?}"
+    );
+    assert!(!m.text.is_empty(), "the message explains the error");
+    s
+}
+
+/// Runs cycles until ReadMessages delivers a message with `code` (within 3 s) and returns it;
+/// messages received before it are dropped.
+pub fn wait_for_message(plc: &mut Plc, code: u16) -> plc_client::response::RobotMessage {
+    let start = Instant::now();
+    loop {
+        let found = plc
+            .task_mut()
+            .take_messages()
+            .into_iter()
+            .find(|m| m.code == u32::from(code));
+        if let Some(m) = found {
+            return m;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(3),
+            "ReadMessages delivered no message 0x{code:04X}"
+        );
+        plc.step().expect("telegram exchange");
+    }
+}
+
+/// Submits `request` and runs cycles until it ends; returns every state its responses went
+/// through (consecutive repeats folded) and the final status.
+pub fn state_trace(
+    plc: &mut Plc,
+    request: &Request,
+    timeout: Duration,
+) -> (Vec<u8>, CommandStatus) {
+    let handle = plc.task_mut().submit(request).expect("submit");
+    follow(plc, handle, timeout)
+}
+
+/// Runs cycles until `handle` ends; returns the states seen (repeats folded) and the status.
+pub fn follow(
+    plc: &mut Plc,
+    handle: plc_client::CommandHandle,
+    timeout: Duration,
+) -> (Vec<u8>, CommandStatus) {
+    let mut states = Vec::new();
+    let start = Instant::now();
+    loop {
+        plc.step().expect("telegram exchange");
+        let s = plc.task().status(handle).cloned().expect("status");
+        if s.responses > 0 && states.last() != Some(&s.state) {
+            states.push(s.state);
+        }
+        if s.is_final() {
+            return (states, s);
+        }
+        assert!(
+            start.elapsed() < timeout,
+            "no final state within {timeout:?}: {states:?} {s:?}"
+        );
+    }
+}
+
+/// ChangeIndexTool, ChangeIndexFrame and ChangeIndexLoad, read with a second
+/// ExchangeConfiguration that is then disabled again.
+pub fn change_indices(plc: &mut Plc) -> [u8; 3] {
+    use shared_types::srci::payload::PayloadReader;
+    use shared_types::srci::tables::exchange_configuration as xc;
+    let lifesign_timeout_ms = plc.task().options().lifesign_timeout_ms;
+    let configuration = |enable| exchange_configuration(enable, lifesign_timeout_ms);
+    let h = plc.task_mut().submit(&configuration(true)).expect("submit");
+    let s = run_until_state(plc, h, state::ACTIVE, Duration::from_secs(3));
+    assert_eq!(s.state, state::ACTIVE, "ExchangeConfiguration: {s:?}");
+    let r = PayloadReader::new(&s.response);
+    let indices = [
+        r.u8(xc::response::CHANGE_INDEX_TOOL),
+        r.u8(xc::response::CHANGE_INDEX_FRAME),
+        r.u8(xc::response::CHANGE_INDEX_LOAD),
+    ];
+    plc.task_mut()
+        .update(h, &configuration(false))
+        .expect("disable");
+    let s = run_until_state(plc, h, state::DONE, Duration::from_secs(3));
+    assert_eq!(
+        s.state,
+        state::DONE,
+        "ExchangeConfiguration disabled: {s:?}"
+    );
+    indices
+}
+
+/// An ExchangeConfiguration request with Enable and LifeSignTimeOut (the typed request always
+/// enables).
+pub fn exchange_configuration(enable: bool, lifesign_timeout_ms: u16) -> Request {
+    use shared_types::srci::payload::PayloadWriter;
+    use shared_types::srci::tables::exchange_configuration as xc;
+    let mut b = vec![0u8; xc::request::LEN];
+    let mut w = PayloadWriter::new(&mut b);
+    w.set_u8(xc::request::LOG_LEVEL, severity::INFO as u8);
+    w.set_bit(xc::request::ENABLE, enable);
+    w.set_u16(xc::request::LIFE_SIGN_TIME_OUT, lifesign_timeout_ms);
+    Request::Raw {
+        command_type: xc::TYPE,
+        execution_mode: 2,
+        payload: b.split_off(4),
+    }
+}
+
+/// One change to a request's parameters, for tables of refused requests.
+pub type Edit<T> = fn(&mut T);
