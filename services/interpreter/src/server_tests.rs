@@ -925,3 +925,85 @@ fn sync_reaction_3_interrupts_the_primary_sequence_after_the_delay() {
         .collect::<std::collections::BTreeSet<_>>();
     assert_eq!(interrupts.len(), 1, "{:?}", plc.motion);
 }
+
+#[test]
+fn a_linear_move_reports_the_distance_left_on_its_line() {
+    use t::move_linear_absolute as mla;
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    let mut msg = request(mla::TYPE, 0, mla::request::LEN);
+    {
+        let mut w = PayloadWriter::new(&mut msg);
+        for f in [
+            mla::request::VELOCITY_RATE,
+            mla::request::ACCELERATION_RATE,
+            mla::request::DECELERATION_RATE,
+            mla::request::JERK_RATE,
+        ] {
+            w.set_u16(f, 0xFFFF);
+        }
+        for (f, v) in mla::request::POSITION_X_RZ
+            .into_iter()
+            .zip([400.0, 0.0, 300.0, 0.0, 0.0, 0.0])
+        {
+            w.set_f32(f, v);
+        }
+    }
+    plc.command(&mut server, 6, NEW, &msg);
+    let mv = *plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::MoveLinear as u8)
+        .expect("handed to the planner");
+    assert!((mv.pose[0] - 0.4).abs() < 1e-6 && (mv.pose[2] - 0.3).abs() < 1e-6);
+    // The planner reports the flange at (500, 100, 200) mm: 173.2 mm from the target.
+    let events = [
+        (1, mv.job, state::BUFFERED, 0),
+        (2, mv.job, state::ACTIVE, 0),
+    ];
+    server.on_motion_status(plc.now(), &status(5, &events), &mut fx);
+    plc.idle(&mut server);
+    let body = plc
+        .responses
+        .iter()
+        .rev()
+        .find(|(id, _)| *id == 6)
+        .unwrap()
+        .1
+        .clone();
+    let r = PayloadReader::new(&body);
+    assert_eq!(r.u8(mla::response::STATE), state::ACTIVE);
+    let remaining = r.f32(mla::response::REMAINING_DISTANCE);
+    assert!((remaining - 173.205).abs() < 0.01, "{remaining}");
+
+    // GroupStop reports that it aborted a move of the primary sequence.
+    plc.command(
+        &mut server,
+        7,
+        NEW,
+        &request(t::group_stop::TYPE, 2, t::group_stop::request::LEN),
+    );
+    let stop = plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::Stop as u8)
+        .unwrap()
+        .job;
+    let events = [
+        (3, mv.job, state::ABORTED, code::ABORTED_BY_GROUP_STOP),
+        (4, stop, state::DONE, 0),
+    ];
+    server.on_motion_status(plc.now(), &status(5, &events), &mut fx);
+    plc.idle(&mut server);
+    let body = plc
+        .responses
+        .iter()
+        .rev()
+        .find(|(id, _)| *id == 7)
+        .unwrap()
+        .1
+        .clone();
+    assert_eq!(
+        PayloadReader::new(&body).i8(t::group_stop::response::ABORTED_SEQUENCE),
+        1
+    );
+}

@@ -93,7 +93,32 @@ pub enum LiveKind {
         progress: u16,
         sent_ms: u64,
         aborts_moves: bool,
+        /// Where a MoveLinearAbsolute goes, for its RemainingDistance.
+        line: Option<LineTarget>,
     },
+}
+
+/// The end of a straight-line move: the TCP target position in the world (m) and the tool
+/// (TCP in the flange frame, m and rad), so that the distance left can be measured from the
+/// flange pose the planner reports.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LineTarget {
+    pub position: [f64; 3],
+    pub tool: [f64; 6],
+}
+
+impl LineTarget {
+    /// Distance in mm from the TCP of `flange` (world, m and rad) to the target.
+    pub fn remaining_mm(&self, flange: [f64; 6]) -> f64 {
+        let tcp = shared_types::pose::isometry(flange) * shared_types::pose::isometry(self.tool);
+        let t = tcp.translation.vector;
+        let d = [
+            self.position[0] - t.x,
+            self.position[1] - t.y,
+            self.position[2] - t.z,
+        ];
+        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * 1000.0
+    }
 }
 
 /// Text for the message log of a command that ended with `code`.

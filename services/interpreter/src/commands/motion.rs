@@ -9,7 +9,7 @@ use shared_types::srci::tables::{
     move_direct_absolute as mda, move_linear_absolute as mla,
 };
 
-use super::LiveKind;
+use super::{LineTarget, LiveKind};
 use crate::motion_link::JobUpdate;
 use crate::server::{Effects, Now, Server};
 use crate::tcp_pose;
@@ -222,10 +222,15 @@ fn decode_move_linear(msg: &[u8], h: CommandHeader, data: &UserData) -> Result<M
     Ok(c)
 }
 
-/// Progress (percent × 100) of a MoveAxesAbsolute or MoveDirectAbsolute response; the
-/// latter also carries RemainingDistance, which joint-interpolated moves do not track:
-/// -1 means "no valid value", 0 "target reached".
-fn write_progress(w: &mut PayloadWriter<'_>, command_type: u16, progress: u16) {
+/// Progress (percent × 100) of a move response; MoveDirectAbsolute and MoveLinearAbsolute
+/// also carry RemainingDistance (mm): measured on the line for linear moves, "no valid
+/// value" (-1) for joint-interpolated ones until they reach the target (0).
+fn write_progress(
+    w: &mut PayloadWriter<'_>,
+    command_type: u16,
+    progress: u16,
+    remaining_mm: Option<f64>,
+) {
     // MoveLinearAbsolute answers in the layout of MoveDirectAbsolute.
     const _: () = assert!(
         mda::response::PROGRESS.offset == mla::response::PROGRESS.offset
@@ -234,7 +239,11 @@ fn write_progress(w: &mut PayloadWriter<'_>, command_type: u16, progress: u16) {
     );
     if matches!(command_type, mda::TYPE | mla::TYPE) {
         w.set_u16(mda::response::PROGRESS, progress);
-        let remaining = if progress == 10_000 { 0.0 } else { -1.0 };
+        let remaining = match remaining_mm {
+            _ if progress == 10_000 => 0.0,
+            Some(mm) => mm as f32,
+            None => -1.0,
+        };
         w.set_f32(mda::response::REMAINING_DISTANCE, remaining);
     } else {
         w.set_u16(maa::response::PROGRESS, progress);
@@ -267,7 +276,21 @@ impl Server {
             }
         };
         match checked {
-            Ok(command) => self.submit_job(cmd_id, h, command, now, fx),
+            Ok(command) => {
+                self.submit_job(cmd_id, h, command, now, fx);
+                if command.kind == MotionCommandKind::MoveLinear as u8
+                    && let Some(LiveKind::Job { line, .. }) = self
+                        .live
+                        .iter_mut()
+                        .find(|l| l.cmd_id == cmd_id)
+                        .map(|l| &mut l.kind)
+                {
+                    *line = Some(LineTarget {
+                        position: [command.pose[0], command.pose[1], command.pose[2]],
+                        tool: command.tool,
+                    });
+                }
+            }
             Err(c) => self.respond(cmd_id, h, state::ERROR, c, now, |_| {}),
         }
     }
@@ -344,7 +367,10 @@ impl Server {
                         progress: 0,
                         sent_ms: now.mono_ms,
                         aborts_moves: h.command_type == gs::TYPE
-                            && self.live.iter().any(|l| l.command_type == maa::TYPE),
+                            && self.live.iter().any(|l| {
+                                matches!(l.command_type, maa::TYPE | mda::TYPE | mla::TYPE)
+                            }),
+                        line: None,
                     },
                 );
             }
@@ -362,14 +388,18 @@ impl Server {
             return;
         }
         let h = self.live_header(i);
-        let (progress, aborts_moves) = match self.live[i].kind {
+        let (progress, aborts_moves, line) = match self.live[i].kind {
             LiveKind::Job {
                 progress,
                 aborts_moves,
+                line,
                 ..
-            } => (progress, aborts_moves),
-            _ => (0, false),
+            } => (progress, aborts_moves, line),
+            _ => (0, false, None),
         };
+        let remaining = line
+            .zip(self.status)
+            .map(|(l, s)| l.remaining_mm(s.flange_pose));
         let progress = if u.state == state::DONE {
             10_000
         } else {
@@ -384,7 +414,9 @@ impl Server {
         self.respond(u.cmd_id, h, u.state, u.code, now, |b| {
             let mut w = PayloadWriter::new(b);
             match command_type {
-                maa::TYPE | mda::TYPE | mla::TYPE => write_progress(&mut w, command_type, progress),
+                maa::TYPE | mda::TYPE | mla::TYPE => {
+                    write_progress(&mut w, command_type, progress, remaining)
+                }
                 gs::TYPE => w.set_i8(gs::response::ABORTED_SEQUENCE, aborted_sequence),
                 _ => {}
             }
@@ -411,6 +443,7 @@ impl Server {
             progress,
             sent_ms,
             aborts_moves,
+            line,
         } = self.live[i].kind
         else {
             return;
@@ -425,13 +458,20 @@ impl Server {
             progress: now_progress,
             sent_ms: now.mono_ms,
             aborts_moves,
+            line,
         };
+        let remaining = line.map(|l| l.remaining_mm(status.flange_pose));
         let cmd_id = self.live[i].cmd_id;
         let h = self.live_header(i);
         let command_type = self.live[i].command_type;
         if matches!(command_type, maa::TYPE | mda::TYPE | mla::TYPE) {
             self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
-                write_progress(&mut PayloadWriter::new(b), command_type, now_progress);
+                write_progress(
+                    &mut PayloadWriter::new(b),
+                    command_type,
+                    now_progress,
+                    remaining,
+                );
             });
         }
     }
