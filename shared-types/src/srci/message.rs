@@ -189,6 +189,8 @@ pub mod code {
     pub const NOT_IMPLEMENTED: u16 = 0x8F11;
     pub const ONLY_ONE_INSTANCE: u16 = 0x8F12;
     pub const TRANSITION_NOT_POSSIBLE: u16 = 0x8F18;
+    /// The command type is not one the specification defines.
+    pub const COMMAND_TYPE_OUT_OF_RANGE: u16 = 0x8F20;
     pub const INTERNAL_ERROR: u16 = 0x8FFF;
 }
 

@@ -125,6 +125,7 @@ impl LineTarget {
 pub fn describe(code: u16) -> &'static str {
     match code {
         code::NOT_IMPLEMENTED => "command not implemented by this robot controller",
+        code::COMMAND_TYPE_OUT_OF_RANGE => "command type not defined by the specification",
         code::INVALID_EXECUTION_MODE => "execution mode not valid for this command",
         code::ROBOT_DISABLED => "robot not enabled: EnableRobot first",
         code::CONTINUE_NOT_ENABLED => "GroupContinue not possible: robot not enabled",
@@ -166,10 +167,13 @@ pub fn describe(code: u16) -> &'static str {
     }
 }
 
-/// Severity a response carries with `code`: infos (0x6xxx), warnings (0x7xxx), errors.
-fn severity_of(code: u16) -> i8 {
+/// Severity a response in state `st` carries with `code`: a command that ends in ERROR is
+/// an error whatever the class of its code (0x6C03 target unreachable ends a move, the PLC
+/// must see an ErrorID); otherwise infos (0x6xxx), warnings (0x7xxx), errors.
+fn severity_of(st: u8, code: u16) -> i8 {
     match code >> 12 {
         0 => severity::NONE,
+        _ if st == state::ERROR => severity::ERROR,
         6 => severity::INFO,
         7 => severity::WARNING,
         _ => severity::ERROR,
@@ -240,6 +244,14 @@ impl Server {
             t::create_server_log::TYPE => self.create_server_log(cmd_id, h, now),
             t::read_server_log::TYPE => self.read_server_log(cmd_id, h, msg, now),
             _ if self.user_data_command(cmd_id, h, msg, now) => {}
+            ty if !t::COMMAND_TYPES.iter().any(|&(_, id)| id == ty) => self.respond(
+                cmd_id,
+                h,
+                state::ERROR,
+                code::COMMAND_TYPE_OUT_OF_RANGE,
+                now,
+                |_| {},
+            ),
             _ => self.respond(cmd_id, h, state::ERROR, code::NOT_IMPLEMENTED, now, |_| {}),
         }
     }
@@ -291,7 +303,7 @@ impl Server {
         let header = ResponseHeader {
             par_seq: h.par_seq,
             state: st,
-            severity: severity_of(code),
+            severity: severity_of(st, code),
             code,
         };
         self.responses

@@ -211,6 +211,10 @@ impl Server {
                 w.set_bit(f, in_sync);
             }
             w.set_bit(xc::response::WORK_AREA, report.work_area_in_sync);
+            // StatusRobotArm reports Accelerating, Decelerating and ConstantVelocity.
+            w.set_bit(xc::response::ACCELERATING_SUPPORTED, true);
+            w.set_bit(xc::response::DECCELERATING_SUPPORTED, true);
+            w.set_bit(xc::response::CONSTANT_VELOCITY_SUPPORTED, true);
         });
     }
 
