@@ -32,7 +32,10 @@ pub use engine::{
 pub use executor::ProgressEvent;
 pub use program::{Program, ProgramError};
 pub use report::{Report, StepReport};
-pub use request::{MoveAxesAbsolute, Request};
+pub use request::{
+    DefaultDynamics, FrameData, GroupJog, LoadData, MoveAxesAbsolute, MoveDirectAbsolute,
+    ReferenceDynamics, Request, SwLimits, Timestamp, ToolData,
+};
 pub use transport::{TcpTransport, Transport, TransportError};
 
 /// The built-in demo program (`rc demo`).

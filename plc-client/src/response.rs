@@ -7,6 +7,11 @@ use shared_types::srci::message::Percent;
 use shared_types::srci::payload::{Field, PayloadReader};
 use shared_types::srci::{supported, tables};
 
+use crate::request::{
+    DefaultDynamics, FrameData, LoadData, ReferenceDynamics, SW_LIMITS_LOWER, SW_LIMITS_UPPER,
+    SwLimits, Timestamp, ToolData,
+};
+
 /// A fixed-length CHAR field as text: up to the first NUL, trailing blanks removed.
 fn chars(payload: &[u8], f: Field) -> String {
     let start = f.offset.min(payload.len());
@@ -230,6 +235,255 @@ impl Messages {
     }
 }
 
+/// A user-data set read back, with DataChanged (the robot changed it since the last write).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DataEntry<T> {
+    pub data: T,
+    pub data_changed: bool,
+}
+
+fn timestamp(r: &PayloadReader, date: Field, time: Field) -> Timestamp {
+    Timestamp {
+        date: r.u16(date),
+        time_of_day_ms: r.u32(time),
+    }
+}
+
+fn reals<const N: usize>(r: &PayloadReader, fields: [Field; N]) -> [f32; N] {
+    fields.map(|f| r.f32(f))
+}
+
+fn percent(r: &PayloadReader, f: Field) -> Option<f64> {
+    match Percent::from_wire(r.u16(f)) {
+        Percent::Value(p) => Some(p),
+        Percent::Default => None,
+    }
+}
+
+/// ReadToolData (5107) response: ToolNo and the tool.
+pub fn tool_data(payload: &[u8]) -> (u8, DataEntry<ToolData>) {
+    use tables::read_tool_data::response as f;
+    let r = PayloadReader::new(payload);
+    let data = ToolData {
+        timestamp: timestamp(&r, f::TOOL_DATA_DATE, f::TOOL_DATA_TIME),
+        pose: reals(&r, f::TOOL_DATA_X_RZ),
+        id: r.u8(f::TOOL_DATA_ID),
+        load_no: r.u8(f::TOOL_DATA_LOAD_NO),
+        external_tcp: r.bit(f::TOOL_DATA_EXTERNAL_TCP),
+    };
+    let changed = r.bit(f::DATA_CHANGED);
+    (r.u8(f::TOOL_NO), entry(data, changed))
+}
+
+/// ReadFrameData (5102) response: FrameNo and the frame.
+pub fn frame_data(payload: &[u8]) -> (u8, DataEntry<FrameData>) {
+    use tables::read_frame_data::response as f;
+    let r = PayloadReader::new(payload);
+    let data = FrameData {
+        timestamp: timestamp(&r, f::FRAME_DATA_DATE, f::FRAME_DATA_TIME),
+        reference_frame: r.u8(f::FRAME_DATA_REFERENCE_FRAME),
+        pose: reals(&r, f::FRAME_DATA_X_RZ),
+    };
+    let changed = r.bit(f::DATA_CHANGED);
+    (r.u8(f::FRAME_NO), entry(data, changed))
+}
+
+/// ReadLoadData (5103) response: LoadNo and the load.
+pub fn load_data(payload: &[u8]) -> (u8, DataEntry<LoadData>) {
+    use tables::read_load_data::response as f;
+    let r = PayloadReader::new(payload);
+    let data = LoadData {
+        timestamp: timestamp(&r, f::LOAD_DATA_DATE, f::LOAD_DATA_TIME),
+        centre_of_gravity: reals(&r, f::LOAD_DATA_X_RZ),
+        mass_kg: r.f32(f::LOAD_DATA_MASS),
+        inertia: reals(&r, [f::LOAD_DATA_IX, f::LOAD_DATA_IY, f::LOAD_DATA_IZ]),
+    };
+    let changed = r.bit(f::DATA_CHANGED);
+    (r.u8(f::LOAD_NO), entry(data, changed))
+}
+
+fn entry<T>(data: T, data_changed: bool) -> DataEntry<T> {
+    DataEntry { data, data_changed }
+}
+
+/// The four rates at `fields` (VelocityRate, AccelerationRate, DecelerationRate, JerkRate).
+fn rates(r: &PayloadReader, fields: [Field; 4], timestamp: Timestamp) -> DefaultDynamics {
+    let [
+        velocity_rate,
+        acceleration_rate,
+        deceleration_rate,
+        jerk_rate,
+    ] = fields.map(|f| percent(r, f));
+    DefaultDynamics {
+        timestamp,
+        velocity_rate,
+        acceleration_rate,
+        deceleration_rate,
+        jerk_rate,
+    }
+}
+
+/// The four reference values at `fields` (velocity, acceleration, deceleration, jerk).
+fn references(r: &PayloadReader, fields: [Field; 4], timestamp: Timestamp) -> ReferenceDynamics {
+    let [velocity, acceleration, deceleration, jerk] = reals(r, fields);
+    ReferenceDynamics {
+        timestamp,
+        velocity,
+        acceleration,
+        deceleration,
+        jerk,
+    }
+}
+
+/// ReadRobotDefaultDynamics (5104) response.
+pub fn default_dynamics(payload: &[u8]) -> DataEntry<DefaultDynamics> {
+    use tables::read_robot_default_dynamics::response as f;
+    let r = PayloadReader::new(payload);
+    let fields = [
+        f::VELOCITY_RATE,
+        f::ACCELERATION_RATE,
+        f::DECELERATION_RATE,
+        f::JERK_RATE,
+    ];
+    let data = rates(&r, fields, timestamp(&r, f::DATE, f::TIME));
+    entry(data, r.bit(f::DATA_CHANGED))
+}
+
+/// WriteRobotDefaultDynamics (5202) response: the rates now in effect (no timestamp).
+pub fn default_dynamics_written(payload: &[u8]) -> DefaultDynamics {
+    use tables::write_robot_default_dynamics::response as f;
+    let fields = [
+        f::VELOCITY_RATE,
+        f::ACCELERATION_RATE,
+        f::DECELERATION_RATE,
+        f::JERK_RATE,
+    ];
+    rates(&PayloadReader::new(payload), fields, Timestamp::default())
+}
+
+/// ReadRobotReferenceDynamics (5105) response.
+pub fn reference_dynamics(payload: &[u8]) -> DataEntry<ReferenceDynamics> {
+    use tables::read_robot_reference_dynamics::response as f;
+    let r = PayloadReader::new(payload);
+    let fields = [
+        f::VELOCITY_REFERENCE,
+        f::ACCELERATION_REFERENCE,
+        f::DECELERATION_REFERENCE,
+        f::JERK_REFERENCE,
+    ];
+    let data = references(&r, fields, timestamp(&r, f::DATE, f::TIME));
+    entry(data, r.bit(f::DATA_CHANGED))
+}
+
+/// WriteRobotReferenceDynamics (5203) response: the values now in effect (no timestamp).
+pub fn reference_dynamics_written(payload: &[u8]) -> ReferenceDynamics {
+    use tables::write_robot_reference_dynamics::response as f;
+    let fields = [
+        f::VELOCITY_REFERENCE,
+        f::ACCELERATION_REFERENCE,
+        f::DECELERATION_REFERENCE,
+        f::JERK_REFERENCE,
+    ];
+    references(&PayloadReader::new(payload), fields, Timestamp::default())
+}
+
+/// ReadRobotSWLimits (5106) response: the limits of J1..J6.
+pub fn sw_limits(payload: &[u8]) -> DataEntry<SwLimits> {
+    use tables::read_robot_sw_limits::response as f;
+    let r = PayloadReader::new(payload);
+    let data = SwLimits {
+        timestamp: timestamp(&r, f::DATE, f::TIME),
+        lower_deg: reals(&r, SW_LIMITS_LOWER),
+        upper_deg: reals(&r, SW_LIMITS_UPPER),
+    };
+    entry(data, r.bit(f::DATA_CHANGED))
+}
+
+/// The arm configuration of a ReadActualPosition (5100) response.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ArmConfiguration {
+    /// Shoulder BACK (else FRONT).
+    pub shoulder: bool,
+    /// Elbow DOWN (else UP).
+    pub elbow: bool,
+    /// Wrist FLIP (else NON_FLIP).
+    pub wrist: bool,
+    /// TurnNumber bytes (sign-magnitude nibbles J1..J6, then E1).
+    pub turn_numbers: [u8; 4],
+}
+
+impl ArmConfiguration {
+    pub fn decode(payload: &[u8]) -> Self {
+        use tables::read_actual_position::response as f;
+        let r = PayloadReader::new(payload);
+        Self {
+            shoulder: r.bit(f::SHOULDER),
+            elbow: r.bit(f::ELBOW),
+            wrist: r.bit(f::WRIST),
+            turn_numbers: core::array::from_fn(|i| {
+                r.u8(f::ACTUAL_CARTESIAN_POSITION_TURN_NUMBER.element(i))
+            }),
+        }
+    }
+
+    /// The configuration bits as a move request takes them (bit 0 Shoulder, 1 Elbow, 2 Wrist).
+    pub fn bits(&self) -> u8 {
+        u8::from(self.shoulder) | u8::from(self.elbow) << 1 | u8::from(self.wrist) << 2
+    }
+}
+
+/// MoveDirectAbsolute (2102) response: progress and remaining distance of the move.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CartesianMoveProgress {
+    pub invocation_counter: u8,
+    pub origin_id: i16,
+    /// Progress in percent; `None` when the robot sends 0xFFFF (no valid value).
+    pub progress_percent: Option<f64>,
+    /// Remaining distance in mm: -1 no valid value, 0 target reached.
+    pub remaining_distance: f32,
+}
+
+impl CartesianMoveProgress {
+    pub fn decode(payload: &[u8]) -> Self {
+        use tables::move_direct_absolute::response as f;
+        let r = PayloadReader::new(payload);
+        Self {
+            invocation_counter: r.u8(f::INVOCATION_COUNTER),
+            origin_id: r.i16(f::ORIGIN_ID),
+            progress_percent: percent(&r, f::PROGRESS),
+            remaining_distance: r.f32(f::REMAINING_DISTANCE),
+        }
+    }
+}
+
+/// GroupJog (2100) response bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct JogStatus {
+    pub enabled: bool,
+    /// An incremental jog reached its distance.
+    pub distance_reached: bool,
+    /// The arm moves by this jog.
+    pub motion_active: bool,
+}
+
+impl JogStatus {
+    pub fn decode(payload: &[u8]) -> Self {
+        use tables::group_jog::response as f;
+        let r = PayloadReader::new(payload);
+        Self {
+            enabled: r.bit(f::ENABLED),
+            distance_reached: r.bit(f::DISTANCE_REACHED),
+            motion_active: r.bit(f::MOTION_ACTIVE),
+        }
+    }
+}
+
+/// AbortedSequence of a GroupStop (2003) response: 1 if it aborted moves of the primary
+/// sequence, 0 if none.
+pub fn aborted_sequence(payload: &[u8]) -> i8 {
+    PayloadReader::new(payload).i8(tables::group_stop::response::ABORTED_SEQUENCE)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -250,6 +504,46 @@ mod tests {
         assert!(!d.supports(tables::group_reset::TYPE));
         // A truncated response reads as zeros, not a panic.
         assert_eq!(RobotData::decode(&p[..30]).interpreter_cycle_time_ms, 0);
+    }
+
+    #[test]
+    fn user_data_responses_read_index_data_and_data_changed() {
+        use tables::read_tool_data::response as f;
+        let mut p = vec![0u8; f::LEN];
+        let mut w = PayloadWriter::new(&mut p);
+        w.set_f32(f::TOOL_DATA_Z, 150.0);
+        w.set_u8(f::TOOL_DATA_LOAD_NO, 3);
+        w.set_u8(f::TOOL_NO, 4);
+        w.set_bit(f::DATA_CHANGED, true);
+        let (index, tool) = tool_data(&p);
+        assert_eq!(index, 4);
+        assert_eq!(tool.data.pose[2], 150.0);
+        assert_eq!(tool.data.load_no, 3);
+        assert!(tool.data_changed);
+
+        use tables::read_robot_default_dynamics::response as d;
+        let mut p = vec![0u8; d::LEN];
+        let mut w = PayloadWriter::new(&mut p);
+        w.set_u16(d::VELOCITY_RATE, 5000);
+        w.set_u16(d::JERK_RATE, 0xFFFF);
+        let dd = default_dynamics(&p);
+        assert_eq!(dd.data.velocity_rate, Some(50.0));
+        assert_eq!(dd.data.jerk_rate, None);
+        assert!(!dd.data_changed);
+    }
+
+    #[test]
+    fn arm_configuration_and_jog_bits() {
+        let mut p = vec![0u8; tables::read_actual_position::response::LEN];
+        p[34] = 0b110;
+        p[36..40].copy_from_slice(&[0x10, 0, 0x08, 0]);
+        let c = ArmConfiguration::decode(&p);
+        assert!(!c.shoulder && c.elbow && c.wrist);
+        assert_eq!(c.bits(), 0b110);
+        assert_eq!(c.turn_numbers, [0x10, 0, 0x08, 0]);
+        let jog = JogStatus::decode(&[0, 0, 0, 0, 0b101]);
+        assert!(jog.enabled && !jog.distance_reached && jog.motion_active);
+        assert_eq!(aborted_sequence(&[0, 0, 0, 0, 1]), 1);
     }
 
     #[test]

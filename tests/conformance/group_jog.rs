@@ -1,0 +1,219 @@
+//! GroupJog (2100), Enable type, joint mode: continuous and incremental jogging, Enabled,
+//! MotionActive and DistanceReached, and the refusals.
+
+use std::time::Duration;
+
+use plc_client::response::JogStatus;
+use plc_client::{GroupJog, MoveAxesAbsolute, Request};
+use shared_types::srci::message::{code, state};
+use shared_types::srci::tables::group_jog as gj;
+
+use crate::common::{
+    HOME, Plc, actual_joints, cycles_until, expect_error, initialized, max_deviation,
+    reset_and_enable, run_until_state,
+};
+
+fn jog_status(plc: &Plc, h: plc_client::CommandHandle) -> JogStatus {
+    JogStatus::decode(&plc.task().status(h).expect("status").response)
+}
+
+#[test]
+fn incremental_and_continuous_jogging_in_joint_mode() {
+    let (_c, mut plc) = initialized("jog");
+    let jog = GroupJog::axes(30.0);
+    expect_error(
+        &mut plc,
+        &jog.pressing(0, 1).request(),
+        code::ROBOT_DISABLED,
+    );
+    reset_and_enable(&mut plc);
+
+    // Enabled, no key: ACTIVE with Enabled, not moving.
+    let h = plc.task_mut().submit(&jog.request()).expect("submit");
+    let s = run_until_state(&mut plc, h, state::ACTIVE, Duration::from_secs(3));
+    assert_eq!((s.state, s.code), (state::ACTIVE, 0), "{s:?}");
+    assert_eq!(s.response.len(), gj::response::LEN);
+    assert_eq!(
+        jog_status(&plc, h),
+        JogStatus {
+            enabled: true,
+            distance_reached: false,
+            motion_active: false
+        }
+    );
+
+    // Incremental: J3 by -5 degrees, then DistanceReached.
+    let before = actual_joints(&mut plc);
+    let mut step = jog.pressing(2, -1);
+    step.incremental_rotation = 5.0;
+    plc.task_mut().update(h, &step.request()).expect("update");
+    plc.run_until(
+        |t| {
+            t.status(h)
+                .is_some_and(|s| JogStatus::decode(&s.response).distance_reached || s.is_final())
+        },
+        Duration::from_secs(5),
+    )
+    .expect("distance reached");
+    let st = jog_status(&plc, h);
+    assert!(
+        st.enabled && st.distance_reached && !st.motion_active,
+        "{st:?}"
+    );
+    let after = actual_joints(&mut plc);
+    assert!(
+        (after[2] - (before[2] - 5.0)).abs() < 0.01,
+        "{before:?} -> {after:?}"
+    );
+
+    // Continuous: J1 positive while pressed, MotionActive while moving.
+    plc.task_mut()
+        .update(h, &jog.pressing(0, 1).request())
+        .expect("press");
+    plc.run_until(
+        |t| {
+            t.status(h)
+                .is_some_and(|s| JogStatus::decode(&s.response).motion_active)
+        },
+        Duration::from_secs(2),
+    )
+    .expect("MotionActive");
+    plc.run_for(Duration::from_millis(300)).expect("jogging");
+    plc.task_mut().update(h, &jog.request()).expect("release");
+    assert!(
+        cycles_until(&mut plc, |t| !t.is_moving(), Duration::from_secs(2)),
+        "stops when released"
+    );
+    plc.run_until(
+        |t| {
+            t.status(h)
+                .is_some_and(|s| !JogStatus::decode(&s.response).motion_active)
+        },
+        Duration::from_secs(2),
+    )
+    .expect("MotionActive cleared");
+    let jogged = actual_joints(&mut plc);
+    assert!(jogged[0] > after[0] + 1.0, "J1 moved positive");
+
+    // Enable = FALSE ends the jog DONE.
+    let mut off = jog.clone();
+    off.enable = false;
+    plc.task_mut().update(h, &off.request()).expect("disable");
+    let s = run_until_state(&mut plc, h, state::DONE, Duration::from_secs(3));
+    assert_eq!((s.state, s.code), (state::DONE, 0), "{s:?}");
+
+    // Refusals.
+    let mut both = jog.pressing(1, 1);
+    both.negative[1] = true;
+    expect_error(&mut plc, &both.request(), code::JOG_BOTH_DIRECTIONS);
+    let mut fast = jog.pressing(0, 1);
+    fast.override_percent = Some(100.01);
+    expect_error(&mut plc, &fast.request(), code::INVALID_OVERRIDE);
+    let mut backwards = jog.pressing(0, 1);
+    backwards.incremental_rotation = -1.0;
+    expect_error(
+        &mut plc,
+        &backwards.request(),
+        code::INVALID_INCREMENTAL_ROTATION,
+    );
+    let mut in_frame = jog.pressing(0, 1);
+    in_frame.mode = 0;
+    // Frame and tool jogging need Cartesian motion: not implemented yet.
+    expect_error(&mut plc, &in_frame.request(), code::NOT_IMPLEMENTED);
+    let mut sequence = jog.clone();
+    sequence.execution_mode = 0;
+    expect_error(&mut plc, &sequence.request(), code::INVALID_EXECUTION_MODE);
+
+    // No jogging during a move.
+    let mut slow = MoveAxesAbsolute::to(HOME);
+    slow.velocity_rate = Some(10.0);
+    let m = plc
+        .task_mut()
+        .submit(&Request::MoveAxesAbsolute(slow))
+        .expect("submit");
+    run_until_state(&mut plc, m, state::ACTIVE, Duration::from_secs(3));
+    expect_error(
+        &mut plc,
+        &jog.pressing(4, 1).request(),
+        code::JOG_DURING_MOTION,
+    );
+    let s = run_until_state(&mut plc, m, state::DONE, Duration::from_secs(30));
+    assert_eq!(s.state, state::DONE);
+    assert!(max_deviation(actual_joints(&mut plc), HOME) < 0.01);
+}
+
+#[test]
+fn group_stop_ends_a_running_jog_motion() {
+    use crate::common::{enabled, expect_done};
+    let (_c, mut plc) = enabled("jogstop");
+    let jog = GroupJog::axes(20.0);
+    let h = plc
+        .task_mut()
+        .submit(&jog.pressing(5, 1).request())
+        .expect("submit");
+    plc.run_until(
+        |t| {
+            t.status(h)
+                .is_some_and(|s| JogStatus::decode(&s.response).motion_active)
+        },
+        Duration::from_secs(3),
+    )
+    .expect("jogging");
+    expect_done(
+        &mut plc,
+        &Request::GroupStop,
+        shared_types::srci::tables::group_stop::response::LEN,
+    );
+    assert!(
+        cycles_until(&mut plc, |t| !t.is_moving(), Duration::from_secs(1)),
+        "GroupStop stops the jog motion"
+    );
+    plc.run_for(Duration::from_millis(100)).expect("cycles");
+    let s = plc.task().status(h).cloned().expect("status");
+    assert!(
+        s.is_final() || !JogStatus::decode(&s.response).motion_active,
+        "the jog reports no motion any more: {s:?}"
+    );
+}
+
+/// GroupInterrupt holds the primary sequence so that the secondary one can move the arm:
+/// jogging is allowed while a move is interrupted.
+#[test]
+fn jogging_while_the_primary_sequence_is_interrupted() {
+    use crate::common::{enabled, expect_done, start_slow_move};
+    use shared_types::srci::tables::group_interrupt as gi;
+    let (_c, mut plc) = enabled("jogint");
+    let m = start_slow_move(&mut plc, [50.0, 110.0, 60.0, 80.0, -70.0, 30.0]);
+    expect_done(&mut plc, &Request::GroupInterrupt, gi::response::LEN);
+    run_until_state(&mut plc, m, state::INTERRUPTED, Duration::from_secs(2));
+    assert!(cycles_until(
+        &mut plc,
+        |t| !t.is_moving(),
+        Duration::from_secs(1)
+    ));
+    let before = actual_joints(&mut plc);
+    let mut step = GroupJog::axes(30.0).pressing(5, 1);
+    step.incremental_rotation = 3.0;
+    let h = plc.task_mut().submit(&step.request()).expect("submit");
+    plc.run_until(
+        |t| {
+            t.status(h)
+                .is_some_and(|s| s.is_final() || JogStatus::decode(&s.response).distance_reached)
+        },
+        Duration::from_secs(5),
+    )
+    .expect("jog answered");
+    let s = plc.task().status(h).cloned().expect("status");
+    // SERVER BUG (reported): the interrupted move counts as motion in progress, so the jog
+    // is refused with 0x8C33 although the primary sequence is held.
+    assert_eq!(
+        (s.state, s.code),
+        (state::ACTIVE, 0),
+        "SERVER BUG: jogging must be possible while the primary sequence is interrupted: {s:?}"
+    );
+    let after = actual_joints(&mut plc);
+    assert!(
+        (after[5] - before[5] - 3.0).abs() < 0.01,
+        "{before:?} -> {after:?}"
+    );
+}
