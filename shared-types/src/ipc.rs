@@ -180,7 +180,37 @@ pub struct MotionCommand {
     pub turn_mode: u8,
     /// OriMode of `MoveLinear` (wire value, 0 = standard: the shortest rotation).
     pub ori_mode: u8,
-    pub reserved2: [u8; 6],
+    /// [`MotionSequence`] as `u8`: the sequence a move belongs to, or the sequences a
+    /// Stop, Halt, Interrupt or Continue acts on.
+    pub sequence: u8,
+    /// StepMode: when this primary move ends, the primary sequence is held (as by
+    /// GroupInterrupt) until GroupContinue.
+    pub hold_after: bool,
+    pub reserved2: [u8; 4],
+}
+
+/// The sequence a [`MotionCommand`] belongs to or acts on.
+#[repr(u8)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MotionSequence {
+    /// Both sequences (GroupStop, a lost PLC); for a move: the primary sequence.
+    All = 0,
+    /// The primary sequence: the program's moves (ExecutionMode 0/1).
+    Primary = 1,
+    /// The secondary sequence: jogging and moves with ExecutionMode 7/8, which run while
+    /// the primary sequence is held.
+    Secondary = 2,
+}
+
+impl MotionSequence {
+    /// Decodes the wire value; unknown values act on both sequences.
+    pub fn from_wire(v: u8) -> Self {
+        match v {
+            1 => Self::Primary,
+            2 => Self::Secondary,
+            _ => Self::All,
+        }
+    }
 }
 
 impl MotionCommand {
@@ -208,7 +238,9 @@ impl MotionCommand {
             config_modes: [1; 3],
             turn_mode: 2,
             ori_mode: 0,
-            reserved2: [0; 6],
+            sequence: MotionSequence::All as u8,
+            hold_after: false,
+            reserved2: [0; 4],
         }
     }
 }
