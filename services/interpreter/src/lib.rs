@@ -8,6 +8,7 @@ pub mod cyclic;
 pub mod messages;
 pub mod motion_link;
 pub mod responses;
+pub mod sequences;
 pub mod server;
 pub mod server_log;
 mod service;

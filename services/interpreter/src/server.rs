@@ -26,6 +26,7 @@ use crate::cyclic::{CyclicLayout, CyclicPosition};
 use crate::messages::{MessageLog, MessageType};
 use crate::motion_link::{JobUpdate, MotionLink, PlannerFault};
 use crate::responses::ResponseQueue;
+use crate::sequences::Sequences;
 use crate::server_log::{JOURNAL_LINES, ServerLog};
 use crate::sync::{SyncAction, SyncRequest, SyncSupervisor};
 use crate::tcp_pose::tcp_pose;
@@ -144,6 +145,11 @@ pub struct Server {
     /// The data synchronisation of the session's last ExchangeConfiguration.
     pub(crate) sync_request: SyncRequest,
     sync_supervisor: SyncSupervisor,
+    /// The primary and secondary sequence.
+    pub(crate) sequences: Sequences,
+    /// StepMode of EnableRobot: 0 off, 1 BLENDING, 2 EXACT_STOP (both hold after each move,
+    /// as this controller stops exactly anyway).
+    pub(crate) step_mode: u8,
     pub(crate) live: Vec<LiveCommand>,
     pub(crate) motion: MotionLink,
     pub(crate) updates: Vec<JobUpdate>,
@@ -181,6 +187,8 @@ impl Server {
             server_log: ServerLog::new(JOURNAL_LINES),
             sync_request: SyncRequest::default(),
             sync_supervisor: SyncSupervisor::default(),
+            sequences: Sequences::default(),
+            step_mode: 0,
             live: Vec::with_capacity(acr_length),
             motion: MotionLink::new(issuer, acr_length + 8, settings.planner_timeout_ms),
             updates: Vec::with_capacity(acr_length * 2 + 8),
@@ -548,6 +556,7 @@ impl Server {
         self.lifesign_timeout_ms = self.settings.lifesign_timeout_ms;
         self.sync_request = SyncRequest::default();
         self.sync_supervisor = SyncSupervisor::default();
+        self.sequences.reset();
     }
 
     fn handle_control(&mut self, h: &PlcHeader, now: Now, fx: &mut Effects) {
@@ -859,7 +868,15 @@ impl Server {
 
     fn status_word(&self) -> u32 {
         let mut w = 4u32 << status_bit::OPERATION_MODE_SHIFT; // AUTO_EXT: the PLC drives the robot
-        w |= status_bit::IN_PRIMARY_POS;
+        if self.sequences.secondary_active() {
+            w |= status_bit::SECONDARY_SEQUENCE_ACTIVE;
+        }
+        if self
+            .status
+            .is_none_or(|s| self.sequences.in_primary_position(&s.joints_rad))
+        {
+            w |= status_bit::IN_PRIMARY_POS;
+        }
         if let Some(f) = self.feedback {
             if DriveState::from_wire(f.state).is_enabled() {
                 w |= status_bit::ENABLED;

@@ -379,7 +379,6 @@ fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
         assert!(supported::announces(&map, ty), "type {ty} announced");
     }
     assert!(!supported::announces(&map, t::move_circular_absolute::TYPE));
-    assert!(!supported::announces(&map, t::return_to_primary::TYPE));
     let (byte, bit) = supported::CYCLIC_POSITION;
     assert_ne!(
         map[usize::from(byte)] & (1 << bit),
@@ -517,7 +516,11 @@ fn read_messages_delivers_and_takes_acknowledgements() {
         &mut server,
         2,
         NEW,
-        &request(t::return_to_primary::TYPE, 0, 22),
+        &request(
+            t::move_circular_absolute::TYPE,
+            0,
+            t::move_circular_absolute::request::LEN,
+        ),
     );
     plc.idle(&mut server);
     let (_, body) = plc.responses.iter().rev().find(|(id, _)| *id == 1).unwrap();
@@ -580,7 +583,11 @@ fn steady_state_telegrams_do_not_allocate() {
             &mut server,
             4,
             NEW,
-            &request(t::return_to_primary::TYPE, 0, 22),
+            &request(
+                t::move_circular_absolute::TYPE,
+                0,
+                t::move_circular_absolute::request::LEN,
+            ),
         );
         let job = plc.motion.last().map_or(0, |c| c.job);
         events += 1;
@@ -1006,4 +1013,208 @@ fn a_linear_move_reports_the_distance_left_on_its_line() {
         PayloadReader::new(&body).i8(t::group_stop::response::ABORTED_SEQUENCE),
         1
     );
+}
+
+fn set_sequence(target: u8) -> Vec<u8> {
+    let mut msg = request(t::set_sequence::TYPE, 2, t::set_sequence::request::LEN);
+    PayloadWriter::new(&mut msg).set_u8(t::set_sequence::request::TARGET_SEQUENCE, target);
+    msg
+}
+
+/// A MoveAxesAbsolute to J1 = `j1_deg` with ExecutionMode `mode`.
+fn move_axes(mode: u8, j1_deg: f32) -> Vec<u8> {
+    let mut msg = request(
+        t::move_axes_absolute::TYPE,
+        mode,
+        t::move_axes_absolute::request::LEN,
+    );
+    let mut w = PayloadWriter::new(&mut msg);
+    for f in [
+        t::move_axes_absolute::request::VELOCITY_RATE,
+        t::move_axes_absolute::request::ACCELERATION_RATE,
+        t::move_axes_absolute::request::DECELERATION_RATE,
+        t::move_axes_absolute::request::JERK_RATE,
+    ] {
+        w.set_u16(f, 0xFFFF);
+    }
+    w.set_f32(t::move_axes_absolute::request::JOINT_POSITION_J1, j1_deg);
+    msg
+}
+
+/// The planner's status: standing at J1 = `j1`, the primary sequence held or not.
+fn standing(j1: f64, held: bool, events: &[(u64, u32, u8, u16)]) -> MotionStatus {
+    let mut s = status(5, events);
+    s.joints_rad = [j1, 1.57, 1.57, 1.57, -1.57, 0.0];
+    s.sequence_paused = held;
+    s.queued_jobs = u32::from(held);
+    s
+}
+
+#[test]
+fn an_excursion_on_the_secondary_sequence_returns_to_the_primary_position() {
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    let job = running_move(&mut server, &mut plc, &mut fx, 4);
+    let mut running = standing(
+        0.1,
+        false,
+        &[(1, job, state::BUFFERED, 0), (2, job, state::ACTIVE, 0)],
+    );
+    running.active_job = job;
+    server.on_motion_status(plc.now(), &running, &mut fx);
+    // Not while the primary sequence runs; no secondary moves before SetSequence.
+    plc.command(&mut server, 5, NEW, &set_sequence(2));
+    assert_eq!(
+        plc.last_response(5).unwrap().code,
+        code::REQUIRES_INTERRUPT_OR_IDLE
+    );
+    plc.command(&mut server, 6, NEW, &move_axes(7, 5.0));
+    assert_eq!(
+        plc.last_response(6).unwrap().code,
+        code::SECONDARY_NOT_ACTIVE
+    );
+
+    // GroupInterrupt held the move at J1 = 0.2 rad.
+    let interrupted = [
+        (1, job, state::BUFFERED, 0),
+        (2, job, state::ACTIVE, 0),
+        (
+            3,
+            job,
+            state::INTERRUPTED,
+            code::INTERRUPTED_BY_GROUP_INTERRUPT,
+        ),
+    ];
+    server.on_motion_status(plc.now(), &standing(0.2, true, &interrupted), &mut fx);
+    plc.command(&mut server, 5, NEW, &set_sequence(2));
+    assert_eq!(plc.last_response(5).unwrap().state, state::DONE);
+    let secondary = shared_types::srci::telegram::status_bit::SECONDARY_SEQUENCE_ACTIVE;
+    let in_primary = shared_types::srci::telegram::status_bit::IN_PRIMARY_POS;
+    let word = |plc: &Plc| RobotHeader::decode(&plc.last_rx).unwrap().status;
+    assert_ne!(word(&plc) & secondary, 0);
+
+    // A secondary move takes the arm away.
+    plc.motion.clear();
+    plc.command(&mut server, 6, NEW, &move_axes(7, 30.0));
+    let away = *plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::MoveAxes as u8)
+        .unwrap();
+    assert_eq!(
+        away.sequence,
+        shared_types::ipc::MotionSequence::Secondary as u8
+    );
+    plc.command(&mut server, 7, NEW, &set_sequence(1));
+    assert_eq!(
+        plc.last_response(7).unwrap().code,
+        code::SECONDARY_NOT_EMPTY
+    );
+    let mut events = interrupted.to_vec();
+    events.extend([
+        (4, away.job, state::ACTIVE, 0),
+        (5, away.job, state::DONE, 0),
+    ]);
+    server.on_motion_status(plc.now(), &standing(0.52, true, &events), &mut fx);
+    plc.idle(&mut server);
+    assert_eq!(word(&plc) & in_primary, 0, "away from the primary position");
+    plc.command(&mut server, 7, NEW, &set_sequence(1));
+    assert_eq!(plc.last_response(7).unwrap().state, state::DONE);
+    plc.command(
+        &mut server,
+        8,
+        NEW,
+        &request(t::group_continue::TYPE, 2, t::group_continue::request::LEN),
+    );
+    assert_eq!(
+        plc.last_response(8).unwrap().code,
+        code::NOT_IN_PRIMARY_POSITION
+    );
+
+    // ReturnToPrimary: a secondary joint move back to J1 = 0.2 rad.
+    plc.motion.clear();
+    let mut back = request(
+        t::return_to_primary::TYPE,
+        0,
+        t::return_to_primary::request::LEN,
+    );
+    {
+        let mut w = PayloadWriter::new(&mut back);
+        for f in [
+            t::return_to_primary::request::VELOCITY_RATE,
+            t::return_to_primary::request::ACCELERATION_RATE,
+            t::return_to_primary::request::DECELERATION_RATE,
+            t::return_to_primary::request::JERK_RATE,
+        ] {
+            w.set_u16(f, 0xFFFF);
+        }
+        w.set_bit(t::return_to_primary::request::ENABLE, true);
+    }
+    plc.command(&mut server, 9, NEW, &back);
+    let ret = *plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::MoveAxes as u8)
+        .expect("the way back");
+    assert_eq!(
+        ret.sequence,
+        shared_types::ipc::MotionSequence::Secondary as u8
+    );
+    assert!((ret.joints_rad[0] - 0.2).abs() < 1e-9);
+    events.extend([(6, ret.job, state::ACTIVE, 0), (7, ret.job, state::DONE, 0)]);
+    server.on_motion_status(plc.now(), &standing(0.2, true, &events), &mut fx);
+    plc.idle(&mut server);
+    let (_, body) = plc.responses.iter().rev().find(|(id, _)| *id == 9).unwrap();
+    let r = PayloadReader::new(body);
+    assert_eq!(r.u8(t::return_to_primary::response::STATE), state::DONE);
+    assert_eq!(r.u16(t::return_to_primary::response::PROGRESS), 10_000);
+    assert_ne!(word(&plc) & in_primary, 0, "back on the primary path");
+
+    plc.motion.clear();
+    plc.command(
+        &mut server,
+        8,
+        NEW,
+        &request(t::group_continue::TYPE, 2, t::group_continue::request::LEN),
+    );
+    let cont = plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::Continue as u8)
+        .expect("GroupContinue reaches the planner");
+    assert_eq!(
+        cont.sequence,
+        shared_types::ipc::MotionSequence::Primary as u8
+    );
+}
+
+#[test]
+fn step_mode_holds_the_primary_sequence_after_each_move() {
+    let (mut server, mut plc, _fx) = session(DriveState::Powered);
+    let mut enable = request(t::enable_robot::TYPE, 2, t::enable_robot::request::LEN);
+    {
+        let mut w = PayloadWriter::new(&mut enable);
+        w.set_bit(t::enable_robot::request::ENABLE, true);
+        w.set_u8(t::enable_robot::request::STEP_MODE, 2);
+    }
+    plc.command(&mut server, 1, NEW, &enable);
+    assert_eq!(plc.last_response(1).unwrap().state, state::ACTIVE);
+    let mut fx = Effects::new();
+    server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+    plc.command(&mut server, 2, NEW, &move_axes(0, 10.0));
+    let mv = plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::MoveAxes as u8)
+        .unwrap();
+    assert!(mv.hold_after, "StepMode EXACT_STOP holds after the move");
+    plc.command(
+        &mut server,
+        3,
+        NEW,
+        &exchange_configuration_syncing_sw_limits(true, 0),
+    );
+    let body = last_body(&plc, 3);
+    let r = PayloadReader::new(&body);
+    assert!(r.bit(t::exchange_configuration::response::STEP_MODE_EXACT_STOP_ACTIVE));
+    assert!(!r.bit(t::exchange_configuration::response::STEP_MODE_BLENDING_ACTIVE));
 }

@@ -142,6 +142,8 @@ pub mod code {
     pub const INTERRUPTED_NOT_ENABLED: u16 = 0x6F02;
     /// GroupContinue not possible: robot not enabled.
     pub const CONTINUE_NOT_ENABLED: u16 = 0x8C01;
+    /// GroupContinue not possible: the arm is not where the primary sequence was left.
+    pub const NOT_IN_PRIMARY_POSITION: u16 = 0x8C02;
     pub const SERVER_STATE_RESET: u16 = 0x6A03;
     pub const ROBOT_DISABLED: u16 = 0x8C03;
     pub const DISABLED_DUE_TO_ERROR: u16 = 0x8C04;
@@ -172,6 +174,8 @@ pub mod code {
     pub const INVALID_POSITION: u16 = 0x8D24;
     pub const INVALID_SYNC_REACTION: u16 = 0x8D33;
     pub const INVALID_TIME: u16 = 0x8D34;
+    pub const INVALID_RETURN_MODE: u16 = 0x8D30;
+    pub const INVALID_TARGET_SEQUENCE: u16 = 0x8D31;
     pub const INVALID_TURN_MODE: u16 = 0x8D37;
     pub const INVALID_TOOL_NO: u16 = 0x8D35;
     pub const INVALID_VELOCITY_RATE: u16 = 0x8D38;
@@ -181,13 +185,17 @@ pub mod code {
     pub const INVALID_STEP_MODE: u16 = 0x8D42;
     pub const TOOL_NOT_EXISTING: u16 = 0x8D69;
     pub const FRAME_NOT_EXISTING: u16 = 0x8D70;
-    pub const DECELERATION_RATE_NOT_SUPPORTED: u16 = 0x8E03;
     pub const BLENDING_MODE_NOT_SUPPORTED: u16 = 0x8E05;
     pub const ORI_MODE_NOT_SUPPORTED: u16 = 0x8E08;
-    pub const STEP_MODE_NOT_SUPPORTED: u16 = 0x8E16;
     pub const INVALID_EXECUTION_MODE: u16 = 0x8F10;
     pub const NOT_IMPLEMENTED: u16 = 0x8F11;
     pub const ONLY_ONE_INSTANCE: u16 = 0x8F12;
+    /// Only from an interrupted or idle primary sequence.
+    pub const REQUIRES_INTERRUPT_OR_IDLE: u16 = 0x8F13;
+    /// The secondary sequence is blocked by a command (GroupJog, ReturnToPrimary).
+    pub const SECONDARY_BLOCKED: u16 = 0x8F15;
+    pub const SECONDARY_NOT_ACTIVE: u16 = 0x8F16;
+    pub const SECONDARY_NOT_EMPTY: u16 = 0x8F17;
     pub const TRANSITION_NOT_POSSIBLE: u16 = 0x8F18;
     /// The command type is not one the specification defines.
     pub const COMMAND_TYPE_OUT_OF_RANGE: u16 = 0x8F20;

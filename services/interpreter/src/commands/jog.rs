@@ -7,7 +7,7 @@
 //! The response stays ACTIVE with Enabled, MotionActive and DistanceReached; Enable = FALSE
 //! ends the command DONE. Jogging in frame or tool coordinates needs Cartesian motion.
 
-use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind};
+use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind, MotionSequence};
 use shared_types::srci::message::{CommandHeader, Percent, code, state};
 use shared_types::srci::payload::{Field, PayloadReader, PayloadWriter};
 use shared_types::srci::tables::group_jog as gj;
@@ -130,9 +130,12 @@ impl Server {
             Ok(r) => r,
             Err(c) => return self.respond(cmd_id, h, state::ERROR, c, now, |_| {}),
         };
-        let busy = self
-            .status
-            .is_some_and(|s| (s.active_job != 0 && s.active_job != running) || s.queued_jobs > 0);
+        // Moves held by GroupInterrupt do not count: jogging is the secondary sequence's
+        // way to move the arm while the primary one is held.
+        let busy = self.status.is_some_and(|s| {
+            (s.active_job != 0 && s.active_job != running)
+                || (s.queued_jobs > 0 && !s.sequence_paused)
+        });
         if request.moves() && busy {
             return self.respond(
                 cmd_id,
@@ -148,12 +151,7 @@ impl Server {
         }
         if running != 0 {
             // The previous jog motion stops on its path; its job ends ABORTED quietly.
-            let _ = self.motion.submit(
-                MotionCommand::new(MotionCommandKind::Halt),
-                None,
-                now.mono_ms,
-                &mut fx.motion,
-            );
+            self.halt_jog_motion(now, fx);
         }
         if !request.enable {
             self.respond(cmd_id, h, state::DONE, 0, now, |_| {});
@@ -165,6 +163,7 @@ impl Server {
         {
             let limits = self.user_data.sw_limits_rad();
             let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+            c.sequence = MotionSequence::Secondary as u8;
             c.joints_rad = request.target(status.joints_rad, limits.lower, limits.upper);
             c.velocity_scale = request.velocity_scale;
             c.acceleration_scale = JOG_ACCELERATION;
@@ -198,6 +197,14 @@ impl Server {
         });
     }
 
+    /// Stops the jog motion on its path: the secondary sequence only, so that moves the
+    /// primary sequence holds stay.
+    fn halt_jog_motion(&mut self, now: Now, fx: &mut Effects) {
+        let mut halt = MotionCommand::new(MotionCommandKind::Halt);
+        halt.sequence = MotionSequence::Secondary as u8;
+        let _ = self.motion.submit(halt, None, now.mono_ms, &mut fx.motion);
+    }
+
     /// Ends every running GroupJog with `code` and stops its motion on the path (the PLC that
     /// held the jog buttons is gone).
     pub(crate) fn end_jogs(&mut self, code: u16, now: Now, fx: &mut Effects) {
@@ -209,12 +216,7 @@ impl Server {
             if let LiveKind::Jog { job, .. } = self.live[i].kind
                 && job != 0
             {
-                let _ = self.motion.submit(
-                    MotionCommand::new(MotionCommandKind::Halt),
-                    None,
-                    now.mono_ms,
-                    &mut fx.motion,
-                );
+                self.halt_jog_motion(now, fx);
             }
             let (cmd_id, h) = (self.live[i].cmd_id, self.live_header(i));
             self.respond(cmd_id, h, state::ERROR, code, now, |_| {});

@@ -4,6 +4,7 @@
 mod jog;
 mod motion;
 mod robot;
+mod sequence;
 mod server_log;
 mod session;
 mod user_data;
@@ -20,15 +21,17 @@ use crate::server::{Effects, Now, Server};
 
 /// Command types this interpreter implements; RCSupportedFunctions announces exactly these.
 /// ReadActualPositionCyclic has no command type and is not offered yet.
-pub const IMPLEMENTED: [u16; 28] = [
+pub const IMPLEMENTED: [u16; 30] = [
     t::read_robot_data::TYPE,
     t::exchange_configuration::TYPE,
     t::read_messages::TYPE,
     t::enable_robot::TYPE,
     t::group_reset::TYPE,
+    t::set_sequence::TYPE,
     t::move_axes_absolute::TYPE,
     t::move_direct_absolute::TYPE,
     t::move_linear_absolute::TYPE,
+    t::return_to_primary::TYPE,
     t::read_actual_position::TYPE,
     t::change_speed_override::TYPE,
     t::group_stop::TYPE,
@@ -95,6 +98,8 @@ pub enum LiveKind {
         aborts_moves: bool,
         /// Where a MoveLinearAbsolute goes, for its RemainingDistance.
         line: Option<LineTarget>,
+        /// A move of the secondary sequence (ExecutionMode 7/8, ReturnToPrimary).
+        secondary: bool,
     },
 }
 
@@ -155,7 +160,19 @@ pub fn describe(code: u16) -> &'static str {
         code::TOOL_NOT_EXISTING => "ToolNo does not exist",
         code::FRAME_NOT_EXISTING => "FrameNo does not exist",
         code::INVALID_STEP_MODE => "StepMode is not a defined value",
-        code::STEP_MODE_NOT_SUPPORTED => "StepMode not supported yet",
+        code::NOT_IN_PRIMARY_POSITION => {
+            "GroupContinue not possible: the arm is not where the primary sequence was left (ReturnToPrimary)"
+        }
+        code::REQUIRES_INTERRUPT_OR_IDLE => {
+            "only while the primary sequence is interrupted or idle"
+        }
+        code::SECONDARY_BLOCKED => "secondary sequence blocked by GroupJog or ReturnToPrimary",
+        code::SECONDARY_NOT_ACTIVE => "secondary sequence not active: SetSequence 2 first",
+        code::SECONDARY_NOT_EMPTY => "secondary sequence not empty",
+        code::INVALID_TARGET_SEQUENCE => "TargetSequence must be 1 (primary) or 2 (secondary)",
+        code::INVALID_RETURN_MODE => {
+            "ReturnMode 1 (end position of the interrupted move) is not supported"
+        }
         code::MOTION_ERROR => "motion error: the move was stopped",
         code::INVALID_MODE => "MessageLevel or LogLevel is not a defined value",
         code::INVALID_SYNC_REACTION => "SyncReaction is not a defined value (0..3)",
@@ -201,7 +218,15 @@ impl Server {
             | t::move_direct_absolute::TYPE
             | t::move_linear_absolute::TYPE => matches!(
                 h.execution_mode,
-                execution_mode::SEQUENCE_PRIMARY | execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
+                execution_mode::SEQUENCE_PRIMARY
+                    | execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
+                    | execution_mode::SEQUENCE_SECONDARY
+                    | execution_mode::SEQUENCE_ABORT_OTHERS_SECONDARY
+            ),
+            // The PLC libraries send it on the primary sequence; it moves on the secondary.
+            t::return_to_primary::TYPE => matches!(
+                h.execution_mode,
+                execution_mode::SEQUENCE_PRIMARY | execution_mode::SEQUENCE_SECONDARY
             ),
             // Jogging belongs to the secondary sequence (its default) or runs in parallel.
             t::group_jog::TYPE => matches!(
@@ -228,6 +253,8 @@ impl Server {
             t::read_messages::TYPE => self.read_messages(cmd_id, h, msg, now),
             t::enable_robot::TYPE => self.enable_robot(cmd_id, h, msg, now, fx),
             t::group_reset::TYPE => self.group_reset(cmd_id, h, now, fx),
+            t::set_sequence::TYPE => self.set_sequence(cmd_id, h, msg, now, fx),
+            t::return_to_primary::TYPE => self.return_to_primary(cmd_id, h, msg, now, fx),
             t::read_actual_position::TYPE => self.read_actual_position(cmd_id, h, msg, now),
             t::move_axes_absolute::TYPE
             | t::move_direct_absolute::TYPE
@@ -284,6 +311,10 @@ impl Server {
             LiveKind::ServerLog => self.update_read_server_log(i, msg, now),
             LiveKind::Enable { .. } => self.update_enable_robot(i, msg, now, fx),
             LiveKind::Jog { .. } => self.update_group_jog(i, msg, now, fx),
+            // ReturnToPrimary is disabled by an update with Enable = FALSE.
+            LiveKind::Job { .. } if self.live[i].command_type == t::return_to_primary::TYPE => {
+                self.update_return_to_primary(msg, now, fx)
+            }
             // Execute-type commands take no updates; the new ParSeq is simply acknowledged
             // with the next response.
             LiveKind::Job { .. } => {}

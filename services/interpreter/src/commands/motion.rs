@@ -1,14 +1,15 @@
 //! Commands executed by the planner: MoveAxesAbsolute, ChangeSpeedOverride (and GroupReset's
 //! planner part), with their job updates and progress.
 
-use shared_types::ipc::{MotionCommand, MotionCommandKind};
+use shared_types::ipc::{MotionCommand, MotionCommandKind, MotionSequence};
 use shared_types::srci::message::{CommandHeader, Percent, code, execution_mode, state};
 use shared_types::srci::payload::{Field, PayloadReader, PayloadWriter};
 use shared_types::srci::tables::{
     change_speed_override as cso, group_reset as gr, group_stop as gs, move_axes_absolute as maa,
-    move_direct_absolute as mda, move_linear_absolute as mla,
+    move_direct_absolute as mda, move_linear_absolute as mla, return_to_primary as rtp,
 };
 
+use super::sequence::write_primary_pos;
 use super::{LineTarget, LiveKind};
 use crate::motion_link::JobUpdate;
 use crate::server::{Effects, Now, Server};
@@ -138,13 +139,57 @@ fn decode_move(
         _ => return Err(code::INVALID_BLENDING_MODE),
     }
     let mut c = MotionCommand::new(kind);
-    c.aborting = h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY;
+    c.aborting = matches!(
+        h.execution_mode,
+        execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
+            | execution_mode::SEQUENCE_ABORT_OTHERS_SECONDARY
+    );
+    let secondary = matches!(
+        h.execution_mode,
+        execution_mode::SEQUENCE_SECONDARY | execution_mode::SEQUENCE_ABORT_OTHERS_SECONDARY
+    );
+    c.sequence = if secondary {
+        MotionSequence::Secondary
+    } else {
+        MotionSequence::Primary
+    } as u8;
     c.velocity_scale = velocity;
     c.acceleration_scale = acceleration;
     c.deceleration_scale = deceleration;
     c.jerk_scale = jerk;
     c.duration_s = f64::from(r.u16(layout.time)) / 1000.0;
     c.tool = tool;
+    Ok(c)
+}
+
+/// The rates and Time of a ReturnToPrimary request as a planner command (kind and target
+/// are set by the caller).
+pub(crate) fn decode_return(
+    r: &PayloadReader<'_>,
+    defaults: crate::user_data::DefaultRates,
+) -> Result<MotionCommand, u16> {
+    let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+    c.velocity_scale = rate(
+        r.u16(rtp::request::VELOCITY_RATE),
+        defaults.velocity,
+        code::INVALID_VELOCITY_RATE,
+    )?;
+    c.acceleration_scale = rate(
+        r.u16(rtp::request::ACCELERATION_RATE),
+        defaults.acceleration,
+        code::INVALID_ACCELERATION_RATE,
+    )?;
+    c.deceleration_scale = rate(
+        r.u16(rtp::request::DECELERATION_RATE),
+        defaults.deceleration,
+        code::INVALID_DECELERATION_RATE,
+    )?;
+    c.jerk_scale = rate(
+        r.u16(rtp::request::JERK_RATE),
+        defaults.jerk,
+        code::INVALID_JERK_RATE,
+    )?;
+    c.duration_s = f64::from(r.u16(rtp::request::TIME)) / 1000.0;
     Ok(c)
 }
 
@@ -237,13 +282,16 @@ fn write_progress(
             && mda::response::REMAINING_DISTANCE.offset == mla::response::REMAINING_DISTANCE.offset
             && mda::response::LEN == mla::response::LEN
     );
-    if matches!(command_type, mda::TYPE | mla::TYPE) {
+    let remaining = match remaining_mm {
+        _ if progress == 10_000 => 0.0,
+        Some(mm) => mm as f32,
+        None => -1.0,
+    };
+    if command_type == rtp::TYPE {
+        w.set_u16(rtp::response::PROGRESS, progress);
+        w.set_f32(rtp::response::REMAINING_DISTANCE, remaining);
+    } else if matches!(command_type, mda::TYPE | mla::TYPE) {
         w.set_u16(mda::response::PROGRESS, progress);
-        let remaining = match remaining_mm {
-            _ if progress == 10_000 => 0.0,
-            Some(mm) => mm as f32,
-            None => -1.0,
-        };
         w.set_f32(mda::response::REMAINING_DISTANCE, remaining);
     } else {
         w.set_u16(maa::response::PROGRESS, progress);
@@ -262,10 +310,18 @@ impl Server {
         fx: &mut Effects,
     ) {
         let data = &self.user_data;
+        let secondary = matches!(
+            h.execution_mode,
+            execution_mode::SEQUENCE_SECONDARY | execution_mode::SEQUENCE_ABORT_OTHERS_SECONDARY
+        );
         let checked = if self.error_pending {
             Err(code::DISABLED_DUE_TO_ERROR)
         } else if !self.drives_enabled() {
             Err(code::ROBOT_DISABLED)
+        } else if secondary && !self.sequences.secondary_active() {
+            Err(code::SECONDARY_NOT_ACTIVE)
+        } else if secondary && self.secondary_blocked() {
+            Err(code::SECONDARY_BLOCKED)
         } else {
             match h.command_type {
                 mda::TYPE => {
@@ -276,7 +332,9 @@ impl Server {
             }
         };
         match checked {
-            Ok(command) => {
+            Ok(mut command) => {
+                // StepMode: every primary move holds the sequence when it ends.
+                command.hold_after = !secondary && self.step_mode != 0;
                 self.submit_job(cmd_id, h, command, now, fx);
                 if command.kind == MotionCommandKind::MoveLinear as u8
                     && let Some(LiveKind::Job { line, .. }) = self
@@ -327,11 +385,18 @@ impl Server {
         now: Now,
         fx: &mut Effects,
     ) {
+        let on_secondary = self.sequences.secondary_active();
         if kind == MotionCommandKind::Continue {
             let refused = if self.error_pending {
                 Some(code::DISABLED_DUE_TO_ERROR)
             } else if !self.drives_enabled() {
                 Some(code::CONTINUE_NOT_ENABLED)
+            } else if !on_secondary
+                && !self
+                    .status
+                    .is_none_or(|s| self.sequences.in_primary_position(&s.joints_rad))
+            {
+                Some(code::NOT_IN_PRIMARY_POSITION)
             } else {
                 None
             };
@@ -340,7 +405,22 @@ impl Server {
                 return;
             }
         }
-        self.submit_job(cmd_id, h, MotionCommand::new(kind), now, fx);
+        let mut command = MotionCommand::new(kind);
+        command.sequence = match kind {
+            // GroupStop ends both sequences.
+            MotionCommandKind::Stop => {
+                self.sequences.reset();
+                MotionSequence::All
+            }
+            _ if on_secondary => MotionSequence::Secondary,
+            _ => {
+                if kind == MotionCommandKind::Continue {
+                    self.sequences.primary_resumed();
+                }
+                MotionSequence::Primary
+            }
+        } as u8;
+        self.submit_job(cmd_id, h, command, now, fx);
     }
 
     /// Hands `command` to the planner as a job whose events answer command `cmd_id`.
@@ -371,6 +451,7 @@ impl Server {
                                 matches!(l.command_type, maa::TYPE | mda::TYPE | mla::TYPE)
                             }),
                         line: None,
+                        secondary: command.sequence == MotionSequence::Secondary as u8,
                     },
                 );
             }
@@ -400,6 +481,7 @@ impl Server {
         let remaining = line
             .zip(self.status)
             .map(|(l, s)| l.remaining_mm(s.flange_pose));
+        let primary = self.primary_pos_numbers();
         let progress = if u.state == state::DONE {
             10_000
         } else {
@@ -416,6 +498,10 @@ impl Server {
             match command_type {
                 maa::TYPE | mda::TYPE | mla::TYPE => {
                     write_progress(&mut w, command_type, progress, remaining)
+                }
+                rtp::TYPE => {
+                    write_progress(&mut w, command_type, progress, remaining);
+                    write_primary_pos(&mut w, primary);
                 }
                 gs::TYPE => w.set_i8(gs::response::ABORTED_SEQUENCE, aborted_sequence),
                 _ => {}
@@ -439,39 +525,35 @@ impl Server {
             return;
         };
         let LiveKind::Job {
-            job,
             progress,
             sent_ms,
-            aborts_moves,
             line,
-        } = self.live[i].kind
+            ..
+        } = &mut self.live[i].kind
         else {
             return;
         };
         // Clamped to 0..=100 %, so the product fits a u16.
         let now_progress = (status.active_progress.clamp(0.0, 100.0) * 100.0) as u16;
-        if now_progress == progress || now.mono_ms.saturating_sub(sent_ms) < PROGRESS_INTERVAL_MS {
+        if now_progress == *progress || now.mono_ms.saturating_sub(*sent_ms) < PROGRESS_INTERVAL_MS
+        {
             return;
         }
-        self.live[i].kind = LiveKind::Job {
-            job,
-            progress: now_progress,
-            sent_ms: now.mono_ms,
-            aborts_moves,
-            line,
-        };
+        *progress = now_progress;
+        *sent_ms = now.mono_ms;
+        let line = *line;
         let remaining = line.map(|l| l.remaining_mm(status.flange_pose));
+        let primary = self.primary_pos_numbers();
         let cmd_id = self.live[i].cmd_id;
         let h = self.live_header(i);
         let command_type = self.live[i].command_type;
-        if matches!(command_type, maa::TYPE | mda::TYPE | mla::TYPE) {
+        if matches!(command_type, maa::TYPE | mda::TYPE | mla::TYPE | rtp::TYPE) {
             self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
-                write_progress(
-                    &mut PayloadWriter::new(b),
-                    command_type,
-                    now_progress,
-                    remaining,
-                );
+                let mut w = PayloadWriter::new(b);
+                write_progress(&mut w, command_type, now_progress, remaining);
+                if command_type == rtp::TYPE {
+                    write_primary_pos(&mut w, primary);
+                }
             });
         }
     }

@@ -53,8 +53,7 @@ impl Server {
         let want = r.bit(er::request::ENABLE);
         let step_mode = r.u8(er::request::STEP_MODE);
         let error = match step_mode {
-            0 => None,
-            1 | 2 => Some(code::STEP_MODE_NOT_SUPPORTED),
+            0..=2 => None,
             _ => Some(code::INVALID_STEP_MODE),
         }
         .or((want && self.error_pending).then_some(code::DISABLED_DUE_TO_ERROR))
@@ -65,6 +64,7 @@ impl Server {
             self.respond(cmd_id, h, state::ERROR, c, now, |_| {});
             return;
         }
+        self.step_mode = step_mode;
         self.live[i].kind = LiveKind::Enable {
             want,
             reported: None,

@@ -41,6 +41,7 @@ pub struct ConfigurationReport {
     work_area_in_sync: bool,
     change_index: [u8; 3],
     server_logs: u16,
+    step_mode: u8,
 }
 
 /// The synchronisation an ExchangeConfiguration request asks for, or the code of an
@@ -177,6 +178,7 @@ impl Server {
             change_index: [DataSet::Tool, DataSet::Frame, DataSet::Load]
                 .map(|set| data.change_index(set)),
             server_logs: self.server_log.count(),
+            step_mode: self.step_mode,
         }
     }
 
@@ -215,6 +217,14 @@ impl Server {
             w.set_bit(xc::response::ACCELERATING_SUPPORTED, true);
             w.set_bit(xc::response::DECCELERATING_SUPPORTED, true);
             w.set_bit(xc::response::CONSTANT_VELOCITY_SUPPORTED, true);
+            w.set_bit(
+                xc::response::STEP_MODE_BLENDING_ACTIVE,
+                report.step_mode == 1,
+            );
+            w.set_bit(
+                xc::response::STEP_MODE_EXACT_STOP_ACTIVE,
+                report.step_mode == 2,
+            );
         });
     }
 
