@@ -66,17 +66,7 @@ fn enable_reports_enabled_then_disable_ends_done() {
     plc.run_for(Duration::from_millis(50)).expect("cycles");
     assert!(!plc.task().is_enabled(), "StatusRobotArm.Enabled cleared");
 
-    // StepMode: BLENDING and EXACT_STOP are optional (not supported), others undefined.
-    expect_error(
-        &mut plc,
-        &Request::enable_robot_step_mode(true, 1),
-        code::STEP_MODE_NOT_SUPPORTED,
-    );
-    expect_error(
-        &mut plc,
-        &Request::enable_robot_step_mode(true, 2),
-        code::STEP_MODE_NOT_SUPPORTED,
-    );
+    // StepMode: 0 DEACTIVATE, 1 BLENDING, 2 EXACT_STOP; others are undefined.
     expect_error(
         &mut plc,
         &Request::enable_robot_step_mode(true, 3),
