@@ -1,6 +1,8 @@
 //! `rc`: the SRCI robot controller. One executable, several processes:
 //! - `rc run` starts the orchestrator, which spawns and supervises the services;
 //! - `rc service <name>` is one service process (spawned by `rc run`, or by systemd);
+//! - `rc restart <name>` replaces one service process of a running controller;
+//! - `rc status` shows a running controller's services, their cycles and supervision;
 //! - `rc plc PROGRAM.toml` plays the PLC: runs an SRCI program against a running controller;
 //! - `rc demo` starts a controller, runs the embedded demo program against it and stops it;
 //! - `rc bench latency` measures the controller's latencies on this machine.
@@ -72,8 +74,19 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
     },
-    /// Shows a running controller: pid, uptime and restarts of each service, and a one-second
-    /// sample of the servo tick and the planner.
+    /// Replaces one service process of the running controller now (a planned restart:
+    /// SIGTERM, a new process once the old one is gone) and prints the new pid. The other
+    /// services keep running; not counted against the restart limit.
+    Restart {
+        #[arg(value_parser = service_parser())]
+        service: Service,
+        /// The controller's configuration (default: the embedded config/default.toml).
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+    },
+    /// Shows a running controller: pid, uptime, restarts and cycle statistics of each
+    /// service, the supervision state, and a one-second sample of the servo tick and the
+    /// planner.
     Status {
         /// The controller's configuration (default: the embedded config/default.toml).
         #[arg(long, value_name = "FILE")]
@@ -131,6 +144,10 @@ fn main() -> ExitCode {
             init_logging("warn");
             with_config(config.as_deref(), demo::run)
         }
+        Command::Restart { service, config } => {
+            init_logging("warn");
+            with_config(config.as_deref(), |config| restart(service, config))
+        }
         Command::Status { config } => {
             init_logging("warn");
             with_config(config.as_deref(), status::run)
@@ -184,6 +201,20 @@ fn run_service(service: Service, config: &Config) -> anyhow::Result<()> {
         Service::Servo => servo::run(config, &SHUTDOWN)?,
     }
     Ok(())
+}
+
+/// `rc restart`: asks the running orchestrator for a planned restart of `service`.
+fn restart(service: Service, config: &Config) -> anyhow::Result<bool> {
+    let o = &config.main.orchestrator;
+    // The old process's grace period, the new one's start, and some slack.
+    let timeout =
+        Duration::from_millis(o.shutdown_timeout_ms + o.start_timeout_ms) + Duration::from_secs(2);
+    let restarted = orchestrator::control::restart(&config.main.instance, service, timeout)?;
+    println!(
+        "{service} restarted: pid {} -> {}",
+        restarted.old_pid, restarted.new_pid
+    );
+    Ok(true)
 }
 
 /// The error and its causes on one line. Causes whose text the message already includes (as

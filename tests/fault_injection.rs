@@ -1,9 +1,12 @@
 //! Fault injection: `kill -9` of the planner or the servo at random moments while a program of
-//! moves runs, many times. Checked on every servo feedback sample and every command:
+//! moves runs, many times, and freezing one of them (`SIGSTOP`: alive but stuck, until the
+//! orchestrator's heartbeat deadline kills it). Checked on every servo feedback sample and
+//! every command:
 //! - no joint position, velocity or acceleration limit is exceeded (within one servo process;
 //!   across a servo restart the arm may lose at most the position memory's 20 ms of motion);
 //! - every move ends exactly once with a final state (DONE, or ERROR/ABORTED with a code);
-//! - the arm stands still within a bound after each kill;
+//! - the arm stands still within a bound after each kill (after a freeze: once the frozen
+//!   process has been replaced, as a frozen simulated servo reports nothing);
 //! - after GroupReset (and EnableRobot after a servo restart) the moves run again.
 //!
 //! Iterations: `FAULT_ITERATIONS` (default 6). A longer soak:
@@ -16,9 +19,11 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use common::{Controller, execute, initialize, reset_and_enable};
+use iceoryx2::port::subscriber::Subscriber;
 use plc_client::{MoveAxesAbsolute, Request};
-use shared_types::bus::{self, Bus};
+use shared_types::bus::{self, Bus, Ipc};
 use shared_types::config::Config;
+use shared_types::health::{self, SupervisionStatus};
 use shared_types::ipc::{ServoFeedback, topics};
 use shared_types::srci::message::state;
 
@@ -91,6 +96,19 @@ fn watch_feedback(
     })
 }
 
+/// Whether the newest supervision status waiting says that every service runs, `victim` as
+/// process `pid`.
+fn all_running(
+    supervision: &Subscriber<Ipc, SupervisionStatus, ()>,
+    victim: &str,
+    pid: u32,
+) -> bool {
+    let victim: health::Service = victim.parse().expect("service");
+    bus::receive_latest(supervision)
+        .expect("supervision status")
+        .is_some_and(|s| s.all_running == 1 && s.service(victim).pid == pid)
+}
+
 /// A small xorshift generator: reproducible kill moments without a dependency.
 struct Random(u64);
 
@@ -104,13 +122,13 @@ impl Random {
 }
 
 #[test]
-fn killing_planner_or_servo_never_breaks_a_limit_or_loses_a_command() {
+fn killing_or_freezing_planner_or_servo_never_breaks_a_limit_or_loses_a_command() {
     let iterations: u32 = std::env::var("FAULT_ITERATIONS")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(6);
     // Many kills on purpose: lift the restart-intensity limit that would otherwise (rightly)
-    // shut the controller down.
+    // stop restarting the victim and hold the arm in a safe stop.
     let c = Controller::start_with("fault", |text| {
         text.replace("max_restarts = 5", "max_restarts = 100")
             .replace("restart_window_s = 60", "restart_window_s = 1")
@@ -118,6 +136,10 @@ fn killing_planner_or_servo_never_breaks_a_limit_or_loses_a_command() {
     let stop = Arc::new(AtomicBool::new(false));
     let watch = Arc::new(Mutex::new(Watch::default()));
     let watcher = watch_feedback(c.instance.clone(), stop.clone(), watch.clone());
+    let bus = Bus::new(&c.instance, "faultsup").expect("bus");
+    let supervision = bus
+        .subscriber::<SupervisionStatus>(health::topics::SUPERVISION_STATUS)
+        .expect("subscriber");
     let mut plc = c.client();
     initialize(&mut plc);
     reset_and_enable(&mut plc);
@@ -127,11 +149,13 @@ fn killing_planner_or_servo_never_breaks_a_limit_or_loses_a_command() {
         [-40.0, 80.0, 110.0, 70.0, -110.0, -90.0],
     ];
     let (mut moves, mut ended, mut errors, mut worst_stop) = (0, 0, 0, Duration::ZERO);
+    let mut freezes = 0;
     for i in 0..iterations {
-        let victim = if random.below(2) == 0 {
-            "planner"
-        } else {
-            "servo"
+        let (victim, fault) = match random.below(4) {
+            0 => ("planner", libc::SIGKILL),
+            1 => ("servo", libc::SIGKILL),
+            2 => ("planner", libc::SIGSTOP),
+            _ => ("servo", libc::SIGSTOP),
         };
         let mut m = MoveAxesAbsolute::to(targets[i as usize % 2]);
         m.velocity_rate = Some(60.0);
@@ -144,7 +168,7 @@ fn killing_planner_or_servo_never_breaks_a_limit_or_loses_a_command() {
             .expect("cycles");
         let pid = c.pid_of(victim).expect("pid");
         // SAFETY: kill(2) on a service process of our own controller.
-        assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGKILL) }, 0);
+        assert_eq!(unsafe { libc::kill(pid as i32, fault) }, 0);
         let killed = Instant::now();
         // The move ends exactly once (a final state is final in the client).
         let s = plc
@@ -159,28 +183,46 @@ fn killing_planner_or_servo_never_breaks_a_limit_or_loses_a_command() {
             assert_ne!(s.code, 0, "an error or abort carries a code: {s:?}");
             errors += 1;
         }
-        // The arm stands within a bound.
+        // The arm stands within a bound; a frozen process has to be found and replaced first.
+        let bound = if fault == libc::SIGSTOP {
+            freezes += 1;
+            Duration::from_secs(5)
+        } else {
+            Duration::from_secs(3)
+        };
         loop {
             plc.run_for(Duration::from_millis(10)).expect("cycles");
             let standing = watch.lock().expect("watch").last_speed < 1e-3;
             if standing {
                 break;
             }
-            assert!(
-                killed.elapsed() < Duration::from_secs(3),
-                "arm still moving"
-            );
+            assert!(killed.elapsed() < bound, "arm still moving");
         }
-        worst_stop = worst_stop.max(killed.elapsed());
+        if fault == libc::SIGKILL {
+            worst_stop = worst_stop.max(killed.elapsed());
+        }
         // Wait for the restart, then recover.
         let restarted = Instant::now();
-        while c.pid_of(victim).is_none_or(|p| p == pid) {
+        let new_pid = loop {
+            if let Some(new) = c.pid_of(victim).filter(|&p| p != pid) {
+                break new;
+            }
             assert!(
                 restarted.elapsed() < Duration::from_secs(10),
                 "{victim} restarted"
             );
             plc.run_for(Duration::from_millis(20)).expect("cycles");
+        };
+        // GroupReset only once the new process runs and the interpreter has heard from it: a
+        // new planner instance fails the commands in flight, a GroupReset among them.
+        while !all_running(&supervision, victim, new_pid) {
+            assert!(
+                restarted.elapsed() < Duration::from_secs(10),
+                "{victim} running again"
+            );
+            plc.run_for(Duration::from_millis(20)).expect("cycles");
         }
+        plc.run_for(Duration::from_millis(100)).expect("cycles");
         let reset = execute(&mut plc, &Request::GroupReset, Duration::from_secs(10));
         assert_eq!(reset.state, state::DONE, "GroupReset: {reset:?}");
         if !plc.task().is_enabled() {
@@ -200,8 +242,9 @@ fn killing_planner_or_servo_never_breaks_a_limit_or_loses_a_command() {
     watcher.join().expect("watcher");
     let w = watch.lock().expect("watch");
     println!(
-        "fault injection: {iterations} kills, {moves} moves, {ended} ended once ({errors} with an error code), \
-         {} feedback samples, {} limit violations, worst stop {worst_stop:?}",
+        "fault injection: {iterations} faults ({freezes} freezes), {moves} moves, {ended} ended once \
+         ({errors} with an error code), {} feedback samples, {} limit violations, worst stop \
+         after a kill {worst_stop:?}",
         w.samples,
         w.violations.len()
     );

@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use crate::service::Service;
+use shared_types::health::Service;
 
 /// The pid file of controller `instance`, given the value of `$XDG_RUNTIME_DIR` (if set).
 pub fn pid_file_path_in(runtime_dir: Option<&Path>, instance: &str) -> PathBuf {

@@ -6,7 +6,7 @@ use std::thread::{self, JoinHandle};
 use std::time::Duration;
 
 use crate::child_process::{self, Stopped};
-use crate::service::Service;
+use shared_types::health::Service;
 
 /// A spawned service process and the threads relaying its output.
 pub struct ServiceProcess {
@@ -78,6 +78,12 @@ impl ServiceProcess {
     /// Asks the process to shut down (`SIGTERM`).
     pub fn terminate(&self) {
         child_process::terminate(&self.child);
+    }
+
+    /// Kills the process (`SIGKILL`); it still has to be reaped with
+    /// [`try_wait`](Self::try_wait).
+    pub fn kill(&mut self) -> io::Result<()> {
+        self.child.kill()
     }
 
     /// Waits up to `timeout` for the process to exit after [`terminate`](Self::terminate),

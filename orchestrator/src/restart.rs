@@ -1,8 +1,8 @@
-//! Restart intensity: how many restarts the supervisor allows before it gives up.
+//! Restart intensity: how many restarts the supervisor allows before it gives up on a service.
 //!
-//! Pure bookkeeping without clocks: the caller passes the time of each exit. The intensity is
-//! counted over all services together (as in an Erlang one-for-one supervisor), so services
-//! that crash in turn cannot keep the controller cycling forever.
+//! Pure bookkeeping without clocks: the caller passes the time of each failure. The intensity
+//! is counted over all services together (as in an Erlang supervisor), so services that crash
+//! in turn cannot keep the controller cycling forever. Planned restarts are not counted.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 pub enum RestartDecision {
     /// Restart it; this is restart number `restarts_in_window` within the window.
     Restart { restarts_in_window: u32 },
-    /// Too many restarts within the window: shut the controller down.
+    /// Too many failures within the window: do not restart it (hold in a safe stop).
     GiveUp { restarts_in_window: u32 },
 }
 
@@ -35,7 +35,12 @@ impl RestartPolicy {
         }
     }
 
-    /// Records a service exit at `now` and decides whether it may be restarted.
+    /// Forgets the failures so far (after an operator's reset).
+    pub fn reset(&mut self) {
+        self.recent.clear();
+    }
+
+    /// Records a service failure at `now` and decides whether it may be restarted.
     pub fn on_exit(&mut self, now: Instant) -> RestartDecision {
         while let Some(&oldest) = self.recent.front() {
             if now.saturating_duration_since(oldest) >= self.window {
@@ -108,6 +113,21 @@ mod tests {
         // Long after, a single crash is fine again.
         assert_eq!(
             policy.on_exit(t0 + Duration::from_secs(600)),
+            RestartDecision::Restart {
+                restarts_in_window: 1
+            }
+        );
+    }
+
+    #[test]
+    fn a_reset_forgets_the_failures() {
+        let t0 = Instant::now();
+        let mut policy = RestartPolicy::new(1, WINDOW);
+        policy.on_exit(t0);
+        assert!(matches!(policy.on_exit(t0), RestartDecision::GiveUp { .. }));
+        policy.reset();
+        assert_eq!(
+            policy.on_exit(t0),
             RestartDecision::Restart {
                 restarts_in_window: 1
             }

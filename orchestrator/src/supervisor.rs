@@ -1,4 +1,7 @@
-//! The supervision loop: spawn the services, restart the ones that exit, stop them all.
+//! The supervision loop: the shell around [`Lifecycle`]. It polls the service processes for
+//! exits, feeds the heartbeats and requests from the bus to the lifecycle, carries out its
+//! actions (spawn, SIGTERM, SIGKILL), logs its reports, keeps the pid file current and
+//! publishes the supervision status; on shutdown it stops all services in reverse order.
 
 use std::os::unix::process::ExitStatusExt;
 use std::path::PathBuf;
@@ -7,90 +10,69 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use shared_types::bus::Bus;
 use shared_types::config::OrchestratorConfig;
+use shared_types::health::{SERVICES, STATUS_REPUBLISH_INTERVAL_NS, Service};
+use shared_types::time::monotonic_ns;
 use tracing::{error, info, warn};
 
 use crate::child_process::Stopped;
 use crate::error::OrchestratorError;
+use crate::lifecycle::{Action, Exit, Lifecycle, Report};
+use crate::link::SupervisionLink;
 use crate::pid_file;
 use crate::process::ServiceProcess;
-use crate::restart::{RestartDecision, RestartPolicy};
-use crate::service::Service;
 
 /// How often the children are polled for an exit and the shutdown flag is read.
 const POLL_PERIOD: Duration = Duration::from_millis(10);
 
-/// One service's place in the supervisor.
-struct Slot {
-    service: Service,
-    process: Option<ServiceProcess>,
-    restarts: u32,
-}
-
-/// Spawns every service with `launcher`, each once the one before it is ready (or did not get
-/// ready within the start timeout), supervises them until `shutdown` or until the restart
-/// intensity is exceeded, then stops them all in reverse start order.
-pub(crate) struct Supervisor<'a, L, R>
+/// Spawns every service with `launcher` and supervises them through `link` until `shutdown`,
+/// then stops them all in reverse start order.
+pub(crate) struct Supervisor<L, K>
 where
     L: FnMut(Service) -> Command,
-    R: Fn(Service) -> bool,
+    K: SupervisionLink,
 {
-    bus: &'a Bus,
     launcher: L,
-    is_ready: R,
-    start_timeout: Duration,
-    slots: Vec<Slot>,
-    /// Slots spawned at least once; the next one starts when the last of them is ready.
-    started: usize,
-    /// When the next service is started even though the last one is not ready.
-    start_deadline: Instant,
-    policy: RestartPolicy,
+    link: K,
+    life: Lifecycle,
+    processes: [Option<ServiceProcess>; SERVICES],
     config: OrchestratorConfig,
     pid_file: PathBuf,
+    /// Generation and time of the last published status.
+    published: Option<(u64, u64)>,
 }
 
-impl<'a, L, R> Supervisor<'a, L, R>
+impl<L, K> Supervisor<L, K>
 where
     L: FnMut(Service) -> Command,
-    R: Fn(Service) -> bool,
+    K: SupervisionLink,
 {
     pub(crate) fn new(
-        bus: &'a Bus,
         config: &OrchestratorConfig,
         pid_file: PathBuf,
         launcher: L,
-        is_ready: R,
-        start_timeout: Duration,
+        link: K,
     ) -> Self {
         Self {
-            bus,
             launcher,
-            is_ready,
-            start_timeout,
-            started: 0,
-            start_deadline: Instant::now(),
-            slots: Service::START_ORDER
-                .into_iter()
-                .map(|service| Slot {
-                    service,
-                    process: None,
-                    restarts: 0,
-                })
-                .collect(),
-            policy: RestartPolicy::new(
-                config.max_restarts,
-                Duration::from_secs(config.restart_window_s),
-            ),
+            link,
+            life: Lifecycle::new(config, std::process::id()),
+            processes: Default::default(),
             config: config.clone(),
             pid_file,
+            published: None,
         }
     }
 
     /// Runs the controller's services until `shutdown` becomes true (`Ok`) or supervision
-    /// fails; in every case all services are stopped and the pid file removed on return.
+    /// fails (a process cannot be watched, the bus fails); in every case all services are
+    /// stopped and the pid file removed on return.
     pub(crate) fn run(mut self, shutdown: &AtomicBool) -> Result<(), OrchestratorError> {
         let supervised = self.supervise(shutdown);
+        self.life.shut_down();
+        if let Err(e) = self.publish_status() {
+            warn!("cannot publish the final supervision status: {e}");
+        }
         let stopped = self.stop_all();
         if let Err(e) = pid_file::remove(&self.pid_file) {
             warn!("cannot remove pid file {}: {e}", self.pid_file.display());
@@ -99,116 +81,181 @@ where
     }
 
     fn supervise(&mut self, shutdown: &AtomicBool) -> Result<(), OrchestratorError> {
+        let mut health = Vec::with_capacity(SERVICES);
+        let mut requests = Vec::new();
         while !shutdown.load(Ordering::Relaxed) {
-            self.start_next()?;
-            for index in 0..self.started {
-                let Some(status) = self.poll_exit(index)? else {
+            let now = Instant::now();
+            self.link.receive_health(&mut health)?;
+            for sample in health.drain(..) {
+                self.life.health(&sample, now);
+            }
+            self.link.receive_requests(&mut requests)?;
+            for request in requests.drain(..) {
+                self.life.request(&request, now);
+            }
+            for service in Service::START_ORDER {
+                let Some(exit) = self.poll_exit(service)? else {
                     continue;
                 };
                 // An exit caused by the shutdown signal itself is not a crash.
                 if shutdown.load(Ordering::Relaxed) {
                     return Ok(());
                 }
-                self.restart(index, status)?;
+                self.life.exited(service, exit, now);
             }
+            self.life.tick(now);
+            // Reports first, so a failure is logged before the spawn that follows it.
+            self.log_reports();
+            self.carry_out(now)?;
+            self.log_reports();
+            self.publish_status()?;
             thread::sleep(POLL_PERIOD);
         }
         Ok(())
     }
 
-    /// Spawns the next service of the start order once the one before it is ready.
-    fn start_next(&mut self) -> Result<(), OrchestratorError> {
-        if self.started == self.slots.len() {
-            return Ok(());
+    /// How `service`'s process ended, if it has; the slot is then empty.
+    fn poll_exit(&mut self, service: Service) -> Result<Option<Exit>, OrchestratorError> {
+        let Some(process) = self.processes[service.index()].as_mut() else {
+            return Ok(None);
+        };
+        let pid = process.pid();
+        let Some(status) = process
+            .try_wait()
+            .map_err(|source| OrchestratorError::Wait { service, source })?
+        else {
+            return Ok(None);
+        };
+        process.join_relays();
+        self.processes[service.index()] = None;
+        info!("service {service} (pid {pid}) ended ({status})");
+        // A process ended by a signal left its iceoryx2 node and ports behind.
+        if status.signal().is_some() {
+            let removed = self.link.remove_dead_nodes();
+            info!("removed {removed} dead iceoryx2 node(s) of {service}");
         }
-        if let Some(previous) = self.started.checked_sub(1).map(|i| self.slots[i].service) {
-            if (self.is_ready)(previous) {
-                info!("service {previous} ready");
-            } else if Instant::now() >= self.start_deadline {
-                warn!(
-                    "service {previous} not ready (no subscription to its input topic) within \
-                     {} s; starting the next service anyway",
-                    self.start_timeout.as_secs_f64()
-                );
-            } else {
-                return Ok(());
+        self.write_pid_file()?;
+        Ok(Some(exit_of(status)))
+    }
+
+    fn carry_out(&mut self, now: Instant) -> Result<(), OrchestratorError> {
+        while let Some(action) = self.life.next_action() {
+            match action {
+                Action::Spawn(service) => {
+                    match ServiceProcess::spawn(service, (self.launcher)(service)) {
+                        Ok(process) => {
+                            info!("spawned {service} pid={}", process.pid());
+                            self.life.spawned(service, process.pid(), now);
+                            self.processes[service.index()] = Some(process);
+                            self.write_pid_file()?;
+                        }
+                        Err(e) => {
+                            error!("cannot spawn service {service}: {e}");
+                            self.life.spawn_failed(service, now);
+                        }
+                    }
+                }
+                Action::Terminate(service) => {
+                    if let Some(process) = &self.processes[service.index()] {
+                        process.terminate();
+                    }
+                }
+                Action::Kill(service) => {
+                    if let Some(process) = self.processes[service.index()].as_mut()
+                        && let Err(e) = process.kill()
+                    {
+                        warn!("cannot kill service {service} (pid {}): {e}", process.pid());
+                    }
+                }
             }
         }
-        self.spawn(self.started)?;
-        self.started += 1;
-        self.start_deadline = Instant::now() + self.start_timeout;
         Ok(())
     }
 
-    /// The exit status of slot `index`'s process if it has exited; the slot is then empty.
-    fn poll_exit(&mut self, index: usize) -> Result<Option<ExitStatus>, OrchestratorError> {
-        let slot = &mut self.slots[index];
-        let Some(process) = slot.process.as_mut() else {
-            return Ok(None);
-        };
-        let status = process
-            .try_wait()
-            .map_err(|source| OrchestratorError::Wait {
-                service: slot.service,
-                source,
-            })?;
-        if status.is_some() {
-            process.join_relays();
-            slot.process = None;
+    fn log_reports(&mut self) {
+        for report in self.life.take_reports() {
+            self.log(&report);
         }
-        Ok(status)
     }
 
-    fn restart(&mut self, index: usize, status: ExitStatus) -> Result<(), OrchestratorError> {
-        let service = self.slots[index].service;
-        match self.policy.on_exit(Instant::now()) {
-            RestartDecision::GiveUp { restarts_in_window } => {
-                error!(
-                    "service {service} exited ({status}); {restarts_in_window} restarts within \
-                     {} s exceed orchestrator.max_restarts = {}, shutting the controller down",
-                    self.config.restart_window_s, self.config.max_restarts
-                );
-                Err(OrchestratorError::RestartIntensity {
-                    service,
-                    status,
-                    restarts: restarts_in_window,
-                    max_restarts: self.config.max_restarts,
-                    window_s: self.config.restart_window_s,
-                })
-            }
-            RestartDecision::Restart { restarts_in_window } => {
-                let slot = &mut self.slots[index];
-                slot.restarts += 1;
+    fn log(&self, report: &Report) {
+        let window_s = self.config.restart_window_s;
+        let max = self.config.max_restarts;
+        match report {
+            Report::Ready { service, pid } => info!("service {service} ready (pid {pid})"),
+            Report::Restarting {
+                service,
+                failure,
+                restarts_in_window,
+                also,
+            } => {
+                let also = if also.is_empty() {
+                    String::new()
+                } else {
+                    let names: Vec<&str> = also.iter().map(|s| s.name()).collect();
+                    format!(" with {} (rest_for_one)", names.join(", "))
+                };
                 warn!(
-                    "service {service} exited ({status}); restarting it (restart {} of this \
-                     service, {restarts_in_window} of {} allowed within {} s)",
-                    slot.restarts, self.config.max_restarts, self.config.restart_window_s
+                    "service {service} {failure}; restarting it{also} ({restarts_in_window} of \
+                     {max} restarts allowed within {window_s} s)"
                 );
-                // A process killed by a signal left its iceoryx2 node and ports behind.
-                if status.signal().is_some() {
-                    let removed = self.bus.remove_dead_nodes();
-                    info!("removed {removed} dead iceoryx2 node(s) of {service}");
-                }
-                self.spawn(index)
             }
+            Report::Held {
+                service,
+                failure,
+                restarts_in_window,
+            } => error!(
+                "service {service} {failure}; {restarts_in_window} failures within {window_s} s \
+                 exceed orchestrator.max_restarts = {max}: not restarting it, the arm is held \
+                 in a safe stop (GroupReset or `rc restart {service}` starts it again)"
+            ),
+            Report::Hung {
+                service,
+                pid,
+                cause,
+            } => error!("service {service} (pid {pid}) {cause}: killing it"),
+            Report::StopOverdue { service, pid } => warn!(
+                "service {service} (pid {pid}) did not exit within {} ms of SIGTERM; killing it",
+                self.config.shutdown_timeout_ms
+            ),
+            Report::RestartRequested {
+                service,
+                request_id,
+            } => info!("restart of {service} requested (request {request_id:#x})"),
+            Report::ResetRequested {
+                request_id,
+                services,
+            } => info!("reset requested (request {request_id:#x}); starting again: {services:?}"),
+            Report::Acknowledged {
+                request_id,
+                outcome,
+            } => info!("request {request_id:#x}: {outcome:?}"),
         }
     }
 
-    fn spawn(&mut self, index: usize) -> Result<(), OrchestratorError> {
-        let service = self.slots[index].service;
-        let process = ServiceProcess::spawn(service, (self.launcher)(service))
-            .map_err(|source| OrchestratorError::Spawn { service, source })?;
-        info!("spawned {service} pid={}", process.pid());
-        self.slots[index].process = Some(process);
-        self.write_pid_file()
+    /// Publishes the status when it changed, or when the last one is getting old.
+    fn publish_status(&mut self) -> Result<(), OrchestratorError> {
+        let now_ns = monotonic_ns();
+        let generation = self.life.generation();
+        let due = self.published.is_none_or(|(published, at_ns)| {
+            published != generation || now_ns.saturating_sub(at_ns) >= STATUS_REPUBLISH_INTERVAL_NS
+        });
+        if due {
+            let mut status = self.life.status();
+            status.published_ns = now_ns;
+            self.link.publish_status(status)?;
+            self.published = Some((generation, now_ns));
+        }
+        Ok(())
     }
 
     fn write_pid_file(&self) -> Result<(), OrchestratorError> {
-        let running = self.slots.iter().filter_map(|slot| {
+        let status = self.life.status();
+        let running = Service::START_ORDER.into_iter().filter_map(|service| {
             Some(pid_file::PidEntry {
-                service: slot.service,
-                pid: slot.process.as_ref()?.pid(),
-                restarts: slot.restarts,
+                service,
+                pid: self.processes[service.index()].as_ref()?.pid(),
+                restarts: status.service(service).restarts,
             })
         });
         pid_file::write(&self.pid_file, &pid_file::render(running)).map_err(|source| {
@@ -224,8 +271,8 @@ where
     fn stop_all(&mut self) -> Result<(), OrchestratorError> {
         let timeout = Duration::from_millis(self.config.shutdown_timeout_ms);
         let mut unclean = Vec::new();
-        for slot in self.slots.iter_mut().rev() {
-            let Some(process) = slot.process.take() else {
+        for slot in self.processes.iter_mut().rev() {
+            let Some(process) = slot.take() else {
                 continue;
             };
             let service = process.service();
@@ -251,7 +298,7 @@ where
                 }
             }
         }
-        let removed = self.bus.remove_dead_nodes();
+        let removed = self.link.remove_dead_nodes();
         if removed > 0 {
             info!("removed {removed} dead iceoryx2 node(s)");
         }
@@ -269,21 +316,96 @@ fn stopped_cleanly(status: ExitStatus) -> bool {
     status.success() || status.signal() == Some(libc::SIGTERM)
 }
 
+/// How a process ended, from its exit status.
+fn exit_of(status: ExitStatus) -> Exit {
+    match (status.code(), status.signal()) {
+        (Some(code), _) => Exit::Code(code),
+        (None, Some(signal)) => Exit::Signal(signal),
+        // Neither code nor signal is not possible for a reaped process on Linux.
+        (None, None) => Exit::Code(-1),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     use std::path::Path;
-    use std::sync::Arc;
+    use std::sync::{Arc, Mutex};
 
-    const START_TIMEOUT: Duration = Duration::from_secs(10);
+    use shared_types::bus::BusError;
+    use shared_types::config::Config;
+    use shared_types::health::{
+        FailureCause, RequestOutcome, ServiceHealth, SupervisionRequest, SupervisionStatus,
+    };
+
+    /// A simulated bus: every process the last published status names beats, except the
+    /// services in `silent`; requests are handed over from the test.
+    #[derive(Default)]
+    struct FakeBus {
+        silent: Vec<Service>,
+        requests: Vec<SupervisionRequest>,
+        status: Option<SupervisionStatus>,
+        beats: u64,
+    }
+
+    #[derive(Clone, Default)]
+    struct FakeLink(Arc<Mutex<FakeBus>>);
+
+    impl FakeLink {
+        fn status(&self) -> Option<SupervisionStatus> {
+            self.0.lock().unwrap().status
+        }
+    }
+
+    impl SupervisionLink for FakeLink {
+        fn receive_health(&mut self, into: &mut Vec<ServiceHealth>) -> Result<(), BusError> {
+            let mut bus = self.0.lock().unwrap();
+            bus.beats += 1;
+            let Some(status) = bus.status else {
+                return Ok(());
+            };
+            for service in Service::START_ORDER {
+                let pid = status.service(service).pid;
+                if pid != 0 && !bus.silent.contains(&service) {
+                    into.push(ServiceHealth {
+                        pid,
+                        service: service as u8,
+                        reserved: [0; 3],
+                        started_unix_ms: 0,
+                        published_ns: 0,
+                        heartbeat: bus.beats,
+                        period_ns: 0,
+                        stats: Default::default(),
+                    });
+                }
+            }
+            Ok(())
+        }
+
+        fn receive_requests(&mut self, into: &mut Vec<SupervisionRequest>) -> Result<(), BusError> {
+            into.append(&mut self.0.lock().unwrap().requests);
+            Ok(())
+        }
+
+        fn publish_status(&mut self, status: SupervisionStatus) -> Result<(), BusError> {
+            self.0.lock().unwrap().status = Some(status);
+            Ok(())
+        }
+
+        fn remove_dead_nodes(&mut self) -> u64 {
+            0
+        }
+    }
 
     fn config(max_restarts: u32) -> OrchestratorConfig {
-        OrchestratorConfig {
-            max_restarts,
-            restart_window_s: 60,
-            shutdown_timeout_ms: 500,
-        }
+        let mut config = Config::load(None).unwrap().main.orchestrator;
+        config.max_restarts = max_restarts;
+        config.restart_window_s = 60;
+        config.shutdown_timeout_ms = 500;
+        config.heartbeat_timeout_ms = 300;
+        config.start_timeout_ms = 10_000;
+        config
     }
 
     fn shell(script: &str) -> Command {
@@ -317,29 +439,58 @@ mod tests {
         unsafe { libc::kill(pid as libc::pid_t, 0) == 0 }
     }
 
+    /// A supervisor in a thread, with `launcher`, a simulated bus and its own pid file.
+    struct Running {
+        link: FakeLink,
+        pid_path: PathBuf,
+        shutdown: Arc<AtomicBool>,
+        thread: thread::JoinHandle<Result<(), OrchestratorError>>,
+    }
+
+    impl Running {
+        fn start(
+            tag: &str,
+            config: OrchestratorConfig,
+            launcher: impl FnMut(Service) -> Command + Send + 'static,
+        ) -> Self {
+            let pid_path =
+                std::env::temp_dir().join(format!("rc-test-{tag}-{}.pids", std::process::id()));
+            let link = FakeLink::default();
+            let shutdown = Arc::new(AtomicBool::new(false));
+            let thread = {
+                let (shutdown, pid_path, link) = (shutdown.clone(), pid_path.clone(), link.clone());
+                thread::spawn(move || {
+                    Supervisor::new(&config, pid_path, launcher, link).run(&shutdown)
+                })
+            };
+            Self {
+                link,
+                pid_path,
+                shutdown,
+                thread,
+            }
+        }
+
+        fn status_where(
+            &self,
+            what: &str,
+            condition: impl Fn(&SupervisionStatus) -> bool,
+        ) -> SupervisionStatus {
+            wait_for(what, || self.link.status().filter(|s| condition(s)))
+        }
+
+        fn stop(self) -> Result<(), OrchestratorError> {
+            self.shutdown.store(true, Ordering::Relaxed);
+            let result = self.thread.join().unwrap();
+            assert!(!self.pid_path.exists(), "pid file left behind");
+            result
+        }
+    }
+
     #[test]
     fn restarts_a_killed_service_and_stops_all_on_shutdown() {
-        let instance = format!("rc-test-sup-{}", std::process::id());
-        let pid_path = std::env::temp_dir().join(format!("{instance}.pids"));
-        let shutdown = Arc::new(AtomicBool::new(false));
-        let supervisor = {
-            let (shutdown, pid_path) = (shutdown.clone(), pid_path.clone());
-            thread::spawn(move || {
-                let bus = Bus::new(&instance, "orchestrator").unwrap();
-                let launcher = |_| shell("echo started; exec sleep 30");
-                Supervisor::new(
-                    &bus,
-                    &config(3),
-                    pid_path,
-                    launcher,
-                    |_| true,
-                    START_TIMEOUT,
-                )
-                .run(&shutdown)
-            })
-        };
-
-        let first = wait_for("all services in the pid file", || pids(&pid_path));
+        let sup = Running::start("sup", config(3), |_| shell("echo started; exec sleep 30"));
+        let first = wait_for("all services in the pid file", || pids(&sup.pid_path));
         assert_eq!(
             first.iter().map(|e| e.service).collect::<Vec<_>>(),
             Service::START_ORDER
@@ -348,7 +499,7 @@ mod tests {
         // SAFETY: plain syscall on a child of the supervisor.
         unsafe { libc::kill(planner as libc::pid_t, libc::SIGKILL) };
         let second = wait_for("the planner's restart", || {
-            pids(&pid_path).filter(|running| pid_of(running, Service::Planner) != planner)
+            pids(&sup.pid_path).filter(|running| pid_of(running, Service::Planner) != planner)
         });
         for service in [Service::Servo, Service::Interpreter, Service::Fieldbus] {
             assert_eq!(pid_of(&first, service), pid_of(&second, service));
@@ -366,118 +517,66 @@ mod tests {
             "the pid file counts restarts"
         );
         assert_eq!(restarts(Service::Servo), 0);
+        let status = sup.status_where("all running again", |s| s.all_running == 1);
+        assert_eq!(status.service(Service::Planner).signal, libc::SIGKILL);
 
-        shutdown.store(true, Ordering::Relaxed);
-        supervisor.join().unwrap().unwrap();
-        assert!(!pid_path.exists(), "pid file left behind");
+        sup.stop().unwrap();
         for pid_file::PidEntry { service, pid, .. } in second {
             assert!(!alive(pid), "{service} (pid {pid}) still runs");
         }
     }
 
     #[test]
-    fn gives_up_when_services_keep_exiting() {
-        let instance = format!("rc-test-giveup-{}", std::process::id());
-        let pid_path = std::env::temp_dir().join(format!("{instance}.pids"));
-        let bus = Bus::new(&instance, "orchestrator").unwrap();
-        let shutdown = AtomicBool::new(false);
-        let launcher = |service| {
+    fn beyond_the_intensity_the_failing_service_is_held_and_the_others_keep_running() {
+        let sup = Running::start("hold", config(2), |service| {
             if service == Service::Interpreter {
                 shell("exit 3")
             } else {
                 shell("exec sleep 30")
             }
-        };
-        let err = Supervisor::new(
-            &bus,
-            &config(2),
-            pid_path.clone(),
-            launcher,
-            |_| true,
-            START_TIMEOUT,
-        )
-        .run(&shutdown)
-        .unwrap_err();
-        match &err {
-            OrchestratorError::RestartIntensity {
-                service, restarts, ..
-            } => {
-                assert_eq!(*service, Service::Interpreter);
-                assert_eq!(*restarts, 3);
-            }
-            other => panic!("unexpected error {other}"),
-        }
-        let message = err.to_string();
-        assert!(
-            message.contains("interpreter") && message.contains("exit status: 3"),
-            "{message}"
+        });
+        let status = sup.status_where("the safe stop", |s| s.safe_stop == 1);
+        assert_eq!(status.failed_service(), Some(Service::Interpreter));
+        assert_eq!(
+            FailureCause::from_wire(status.failure),
+            FailureCause::Exited
         );
-        assert!(!pid_path.exists(), "pid file left behind");
+        assert_eq!(status.service(Service::Interpreter).exit_code, 3);
+        assert!(status.reason().contains("interpreter exited with code 3"));
+        // The fieldbus still starts, and the others keep running.
+        let status = sup.status_where("the fieldbus running", |s| {
+            s.service(Service::Fieldbus).pid != 0
+        });
+        thread::sleep(Duration::from_millis(200));
+        for service in [Service::Servo, Service::Planner, Service::Fieldbus] {
+            let pid = status.service(service).pid;
+            assert!(pid != 0 && alive(pid), "{service} runs");
+        }
+        sup.stop().unwrap();
     }
 
     #[test]
     fn a_service_ignoring_sigterm_is_killed_and_reported() {
-        let instance = format!("rc-test-stubborn-{}", std::process::id());
-        let pid_path = std::env::temp_dir().join(format!("{instance}.pids"));
-        let shutdown = Arc::new(AtomicBool::new(false));
-        let supervisor = {
-            let (shutdown, pid_path) = (shutdown.clone(), pid_path.clone());
-            thread::spawn(move || {
-                let bus = Bus::new(&instance, "orchestrator").unwrap();
-                let launcher = |service| {
-                    if service == Service::Servo {
-                        shell("trap '' TERM; echo ready; while :; do sleep 0.01; done")
-                    } else {
-                        shell("exec sleep 30")
-                    }
-                };
-                Supervisor::new(
-                    &bus,
-                    &config(3),
-                    pid_path,
-                    launcher,
-                    |_| true,
-                    START_TIMEOUT,
-                )
-                .run(&shutdown)
-            })
-        };
-        wait_for("all services in the pid file", || pids(&pid_path));
+        let sup = Running::start("stubborn", config(3), |service| {
+            if service == Service::Servo {
+                shell("trap '' TERM; echo ready; while :; do sleep 0.01; done")
+            } else {
+                shell("exec sleep 30")
+            }
+        });
+        wait_for("all services in the pid file", || pids(&sup.pid_path));
         // Give the shell time to install its trap.
         thread::sleep(Duration::from_millis(200));
-        shutdown.store(true, Ordering::Relaxed);
-        let err = supervisor.join().unwrap().unwrap_err().to_string();
+        let err = sup.stop().unwrap_err().to_string();
         assert!(err.contains("servo (killed)"), "{err}");
     }
 
     #[test]
-    fn a_service_starts_only_once_the_one_before_it_is_ready() {
-        let instance = format!("rc-test-order-{}", std::process::id());
-        let pid_path = std::env::temp_dir().join(format!("{instance}.pids"));
-        let shutdown = Arc::new(AtomicBool::new(false));
-        let interpreter_ready = Arc::new(AtomicBool::new(false));
-        let supervisor = {
-            let (shutdown, pid_path) = (shutdown.clone(), pid_path.clone());
-            let interpreter_ready = interpreter_ready.clone();
-            thread::spawn(move || {
-                let bus = Bus::new(&instance, "orchestrator").unwrap();
-                let launcher = |_| shell("exec sleep 30");
-                let is_ready = |service| {
-                    service != Service::Interpreter || interpreter_ready.load(Ordering::Relaxed)
-                };
-                Supervisor::new(
-                    &bus,
-                    &config(3),
-                    pid_path,
-                    launcher,
-                    is_ready,
-                    START_TIMEOUT,
-                )
-                .run(&shutdown)
-            })
-        };
+    fn a_service_starts_only_once_the_one_before_it_beats() {
+        let sup = Running::start("order", config(3), |_| shell("exec sleep 30"));
+        sup.link.0.lock().unwrap().silent = vec![Service::Interpreter];
         let started = |count: usize| {
-            let path = pid_path.clone();
+            let path = sup.pid_path.clone();
             move || {
                 let running = pid_file::parse(&std::fs::read_to_string(&path).ok()?);
                 (running.len() == count).then_some(running)
@@ -488,11 +587,62 @@ mod tests {
         thread::sleep(Duration::from_millis(200));
         assert!(
             started(3)().is_some(),
-            "fieldbus started before the interpreter was ready"
+            "fieldbus started before the interpreter beat"
         );
-        interpreter_ready.store(true, Ordering::Relaxed);
+        sup.link.0.lock().unwrap().silent.clear();
         wait_for("the fieldbus", started(4));
-        shutdown.store(true, Ordering::Relaxed);
-        supervisor.join().unwrap().unwrap();
+        sup.stop().unwrap();
+    }
+
+    #[test]
+    fn a_frozen_service_is_killed_by_its_heartbeat_deadline_and_restarted() {
+        let sup = Running::start("frozen", config(3), |_| shell("exec sleep 30"));
+        let first = sup.status_where("all running", |s| s.all_running == 1);
+        let planner = first.service(Service::Planner).pid;
+        sup.link.0.lock().unwrap().silent = vec![Service::Planner];
+        let status = sup.status_where("the planner replaced", |s| {
+            let p = s.service(Service::Planner).pid;
+            p != 0 && p != planner
+        });
+        sup.link.0.lock().unwrap().silent.clear();
+        assert!(!alive(planner), "the frozen process was killed");
+        let entry = status.service(Service::Planner);
+        assert_eq!(
+            FailureCause::from_wire(entry.last_failure),
+            FailureCause::MissedHeartbeat
+        );
+        assert_eq!(entry.signal, libc::SIGKILL);
+        assert_eq!(
+            status.service(Service::Servo).pid,
+            first.service(Service::Servo).pid
+        );
+        sup.stop().unwrap();
+    }
+
+    #[test]
+    fn a_requested_restart_replaces_the_process_and_is_acknowledged() {
+        let sup = Running::start("request", config(0), |_| shell("exec sleep 30"));
+        let first = sup.status_where("all running", |s| s.all_running == 1);
+        let planner = first.service(Service::Planner).pid;
+        sup.link
+            .0
+            .lock()
+            .unwrap()
+            .requests
+            .push(SupervisionRequest::restart(42, Service::Planner));
+        let status = sup.status_where("the acknowledgement", |s| s.request_id == 42);
+        assert_eq!(
+            RequestOutcome::from_wire(status.request_outcome),
+            RequestOutcome::Done
+        );
+        let new = status.service(Service::Planner).pid;
+        assert!(new != planner && alive(new));
+        assert!(!alive(planner));
+        assert_eq!(
+            status.safe_stop, 0,
+            "planned: not counted although max_restarts = 0"
+        );
+        assert_eq!(status.all_running, 1);
+        sup.stop().unwrap();
     }
 }

@@ -15,6 +15,7 @@ use std::time::{Duration, Instant};
 use orchestrator::{Service, pid_file};
 use shared_types::bus::Bus;
 use shared_types::config::{Config, EMBEDDED_DEFAULT};
+use shared_types::health::HealthReporter;
 use shared_types::ipc::{MotionCommand, PlcTelegram, ServoFeedback, ServoSetpoint, topics};
 
 const TEST: &str = "crashed_service_is_restarted_and_no_shared_memory_is_left";
@@ -45,7 +46,7 @@ fn main() {
 fn fake_service(name: &str, config: &Path) {
     let config = Config::load(Some(config)).unwrap();
     let bus = Bus::new(&config.main.instance, name).unwrap();
-    // Each subscribes to its real input topic: the orchestrator's readiness signal.
+    // Each subscribes to its real input topic, as a real one does before it beats.
     let _setpoints = (name == "servo").then(|| {
         bus.subscriber::<ServoSetpoint>(topics::SERVO_SETPOINT)
             .unwrap()
@@ -60,9 +61,13 @@ fn fake_service(name: &str, config: &Path) {
         .publisher::<ServoFeedback>(topics::SERVO_FEEDBACK)
         .unwrap();
     let _wakeup = bus.notifier(topics::SERVO_FEEDBACK).unwrap();
+    // The heartbeat tells the orchestrator it is ready and alive.
+    let service: Service = name.parse().unwrap();
+    let mut health = HealthReporter::new(&bus, service, 0).unwrap();
     // Ended by the orchestrator's SIGTERM (default action) or a test's SIGKILL.
     loop {
-        thread::sleep(Duration::from_secs(1));
+        health.beat().unwrap();
+        thread::sleep(Duration::from_millis(50));
     }
 }
 

@@ -179,11 +179,52 @@ pub struct ServoConfig {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OrchestratorConfig {
-    /// Restarts allowed within `restart_window_s` before the controller gives up.
+    /// Restarts allowed within `restart_window_s` before the failing service is held in a
+    /// safe stop instead of being restarted.
     pub max_restarts: u32,
     pub restart_window_s: u64,
     /// Time a service gets to exit after SIGTERM before it is killed.
     pub shutdown_timeout_ms: u64,
+    /// Time a running service's heartbeat may stand still before it is killed as hung.
+    pub heartbeat_timeout_ms: u64,
+    /// Time a (re)started service has to send its first heartbeat before it is killed.
+    pub start_timeout_ms: u64,
+    /// `[orchestrator.strategy]`: what else is restarted with a failed service.
+    pub strategy: RestartStrategies,
+}
+
+/// `[orchestrator.strategy]`: the restart strategy of each service.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RestartStrategies {
+    pub servo: RestartStrategy,
+    pub planner: RestartStrategy,
+    pub interpreter: RestartStrategy,
+    pub fieldbus: RestartStrategy,
+}
+
+impl RestartStrategies {
+    /// The strategy of `service`.
+    pub fn of(&self, service: crate::health::Service) -> RestartStrategy {
+        use crate::health::Service;
+        match service {
+            Service::Servo => self.servo,
+            Service::Planner => self.planner,
+            Service::Interpreter => self.interpreter,
+            Service::Fieldbus => self.fieldbus,
+        }
+    }
+}
+
+/// What the orchestrator restarts when a service fails (as in Erlang/OTP supervisors).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RestartStrategy {
+    /// Only the failed service.
+    OneForOne,
+    /// The failed service and every service started after it (servo → planner →
+    /// interpreter → fieldbus), stopped in reverse and started again in order.
+    RestForOne,
 }
 
 /// `robots/<name>.toml`.
@@ -518,6 +559,18 @@ impl MainConfig {
             10,
             60_000,
         )?;
+        c.range(
+            "orchestrator.heartbeat_timeout_ms",
+            self.orchestrator.heartbeat_timeout_ms,
+            100,
+            60_000,
+        )?;
+        c.range(
+            "orchestrator.start_timeout_ms",
+            self.orchestrator.start_timeout_ms,
+            500,
+            120_000,
+        )?;
         Ok(())
     }
 }
@@ -634,6 +687,27 @@ mod tests {
             "{err}"
         );
         assert!(err.contains("64..=256"), "{err}");
+    }
+
+    #[test]
+    fn restart_strategies_are_read_per_service() {
+        use crate::health::Service;
+        let cfg = Config::load(None).expect("embedded default");
+        let strategy = cfg.main.orchestrator.strategy;
+        assert_eq!(strategy.of(Service::Servo), RestartStrategy::OneForOne);
+        assert_eq!(
+            strategy.of(Service::Interpreter),
+            RestartStrategy::RestForOne
+        );
+        let text =
+            EMBEDDED_DEFAULT.replace("planner = \"one_for_one\"", "planner = \"one_for_all\"");
+        let err = parse::<MainConfig>("x.toml", &text)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("one_for_all") && err.contains("planner"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -4,6 +4,7 @@
 pub mod alloc_count;
 pub mod bus;
 pub mod config;
+pub mod health;
 pub mod ipc;
 pub mod pose;
 pub mod realtime;

@@ -17,6 +17,7 @@ use std::time::Duration;
 
 use shared_types::bus::{Bus, BusError};
 use shared_types::config::Config;
+use shared_types::health::{HealthReporter, Service};
 use shared_types::ipc::{LinkEvent, PlcTelegram, TELEGRAM_CAPACITY, topics};
 use shared_types::time::monotonic_ns;
 
@@ -104,8 +105,11 @@ impl Gateway {
             rob_to_plc = self.reply_length,
             "fieldbus TCP gateway listening"
         );
+        let period_ns = u64::try_from(self.reply_timeout.as_nanos()).unwrap_or(u64::MAX);
+        let mut health = HealthReporter::new(&self._bus, Service::Fieldbus, period_ns)?;
         while !shutdown.load(Ordering::Relaxed) {
             shared_types::supervision::beat();
+            health.beat()?;
             match self.link.poll(POLL_INTERVAL)? {
                 Activity::Idle => {}
                 Activity::Connected {
@@ -121,7 +125,11 @@ impl Gateway {
                     self.bridge.link_event(connection, LinkEvent::Connected)?;
                 }
                 Activity::Disconnected(ended) => self.report_ended(ended)?,
-                Activity::Telegram => self.exchange(shutdown)?,
+                Activity::Telegram => {
+                    let received_ns = monotonic_ns();
+                    self.exchange(shutdown)?;
+                    health.record(received_ns);
+                }
             }
         }
         if let Some(connection) = self.link.close() {

@@ -9,6 +9,7 @@ use core::time::Duration;
 
 use shared_types::bus::{Bus, BusError, publish, receive_latest, wait_for_wakeup};
 use shared_types::config::Config;
+use shared_types::health::{HealthReporter, Service};
 use shared_types::ipc::{
     JOB_EVENTS, MotionCommand, MotionCommandKind, MotionStatus, ServoFeedback, ServoSetpoint,
     topics,
@@ -39,6 +40,8 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), PlannerError> {
     let setpoint_publisher = bus.publisher::<ServoSetpoint>(topics::SERVO_SETPOINT)?;
     let status_publisher = bus.publisher::<MotionStatus>(topics::MOTION_STATUS)?;
     shared_types::supervision::ready();
+    let period_ns = config.main.servo.period_us.saturating_mul(1000);
+    let mut health = HealthReporter::new(&bus, Service::Planner, period_ns)?;
 
     let instance = process_instance();
     let mut executor = Executor::new(config, instance);
@@ -57,6 +60,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), PlannerError> {
 
     while !shutdown.load(Ordering::Relaxed) {
         shared_types::supervision::beat();
+        health.beat()?;
         if let Err(e) = wait_for_wakeup(&feedback_wakeup, WAKEUP_TIMEOUT) {
             // The signal that requests the shutdown may interrupt the wait.
             if shutdown.load(Ordering::Relaxed) {
@@ -67,6 +71,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), PlannerError> {
         let Some(feedback) = receive_latest(&feedback_subscriber)? else {
             continue;
         };
+        health.record(feedback.time_ns);
         let mut count = 0;
         while count < COMMAND_BATCH {
             match command_subscriber.receive() {

@@ -11,6 +11,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use shared_types::bus::{Bus, BusError, publish, receive_latest};
 use shared_types::config::Config;
+use shared_types::health::{HealthReporter, Service};
 use shared_types::ipc::{DriveState, ServoControl, ServoFeedback, ServoSetpoint, topics};
 use shared_types::throttle::WarnThrottle;
 
@@ -45,6 +46,7 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
 
     let instance = process_instance();
     let period_ns = config.main.servo.period_us.saturating_mul(1000);
+    let mut health = HealthReporter::new(&bus, Service::Servo, period_ns)?;
     // The arm stays where it stopped: a restarted servo process (or controller) continues
     // from the stored position, never from home, so the simulated joints never jump.
     let data_dir = config.main.data_dir();
@@ -76,6 +78,8 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
     while !shutdown.load(Ordering::Relaxed) {
         let timing = clock.wait()?;
         shared_types::supervision::beat();
+        health.record(timing.deadline_ns);
+        health.beat()?;
         // Overruns are counted in every feedback sample; the log gets one line per interval
         // at most, so a loaded machine does not flood it.
         if timing.skipped > 0 && overrun_log.admit(timing.deadline_ns).is_some() {
