@@ -29,12 +29,15 @@ struct Job {
     command_type: u16,
 }
 
-/// Why the planner connection reports a fault.
+/// A change of the planner that the interpreter must act on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PlannerFault {
-    /// A new planner instance appeared: the old one died with our jobs.
+pub enum PlannerEvent {
+    /// A new planner instance appeared while nothing was in flight (a restart at rest): it
+    /// only needs the current override.
+    Replaced,
+    /// A new planner instance appeared: the old one died with our jobs (a fault).
     Restarted,
-    /// No status for longer than the planner timeout while jobs were in flight.
+    /// No status for longer than the planner timeout while jobs were in flight (a fault).
     Silent,
 }
 
@@ -68,6 +71,11 @@ impl MotionLink {
             timeout_ms,
             silent_reported: false,
         }
+    }
+
+    /// This interpreter instance.
+    pub fn issuer(&self) -> u64 {
+        self.issuer
     }
 
     /// Numbers `command` and queues it for sending; returns its job number, or `None` when
@@ -112,13 +120,18 @@ impl MotionLink {
         now_ms: u64,
         fault_code: u16,
         updates: &mut Vec<JobUpdate>,
-    ) -> Option<PlannerFault> {
+    ) -> Option<PlannerEvent> {
         self.last_status_ms = now_ms;
         self.silent_reported = false;
         let mut fault = None;
         if status.instance != self.planner_instance {
             if self.planner_instance != 0 {
-                fault = Some(PlannerFault::Restarted);
+                let lost = !self.jobs.is_empty() || !self.pending.is_empty();
+                fault = Some(if lost {
+                    PlannerEvent::Restarted
+                } else {
+                    PlannerEvent::Replaced
+                });
                 self.fail_all(fault_code, updates);
                 // The new planner must not execute what the old one was given.
                 self.pending.clear();
@@ -162,7 +175,7 @@ impl MotionLink {
         fault_code: u16,
         out: &mut Vec<MotionCommand>,
         updates: &mut Vec<JobUpdate>,
-    ) -> Option<PlannerFault> {
+    ) -> Option<PlannerEvent> {
         for (command, sent) in &mut self.pending {
             if now_ms.saturating_sub(*sent) >= RESEND_MS {
                 *sent = now_ms;
@@ -174,7 +187,7 @@ impl MotionLink {
             self.silent_reported = true;
             self.fail_all(fault_code, updates);
             self.pending.clear();
-            return Some(PlannerFault::Silent);
+            return Some(PlannerEvent::Silent);
         }
         None
     }
@@ -270,8 +283,21 @@ mod tests {
     fn planner_restart_fails_jobs_in_flight() {
         let (mut link, _, mut updates) = one_move_in_flight();
         let fault = link.on_status(&status(2, 0, &[]), 10, 0x6C02, &mut updates);
-        assert_eq!(fault, Some(PlannerFault::Restarted));
+        assert_eq!(fault, Some(PlannerEvent::Restarted));
         assert_eq!((updates[0].state, updates[0].code), (state::ERROR, 0x6C02));
+    }
+
+    #[test]
+    fn a_planner_restart_at_rest_loses_nothing() {
+        let mut link = MotionLink::new(1, 4, 100);
+        let mut updates = Vec::new();
+        assert_eq!(
+            link.on_status(&status(1, 0, &[]), 0, 0x6C02, &mut updates),
+            None
+        );
+        let event = link.on_status(&status(2, 0, &[]), 10, 0x6C02, &mut updates);
+        assert_eq!(event, Some(PlannerEvent::Replaced));
+        assert!(updates.is_empty());
     }
 
     #[test]
@@ -279,7 +305,7 @@ mod tests {
         let (mut link, mut out, mut updates) = one_move_in_flight();
         assert_eq!(
             link.poll(150, 0x6C02, &mut out, &mut updates),
-            Some(PlannerFault::Silent)
+            Some(PlannerEvent::Silent)
         );
         assert_eq!(link.poll(160, 0x6C02, &mut out, &mut updates), None);
         assert_eq!(updates.len(), 1);

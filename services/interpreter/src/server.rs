@@ -24,13 +24,14 @@ use crate::acr::{Acr, FragmentOutcome, MESSAGE_CAPACITY};
 use crate::commands::LiveCommand;
 use crate::cyclic::{CyclicLayout, CyclicPosition};
 use crate::messages::{MessageLog, MessageType};
-use crate::motion_link::{JobUpdate, MotionLink, PlannerFault};
+use crate::motion_link::{JobUpdate, MotionLink, PlannerEvent};
 use crate::responses::ResponseQueue;
 use crate::sequences::Sequences;
 use crate::server_log::{JOURNAL_LINES, ServerLog};
 use crate::sync::{SyncAction, SyncRequest, SyncSupervisor};
 use crate::tcp_pose::tcp_pose;
 use crate::user_data::{CURRENT_INDEX as CURRENT, UserData};
+use shared_types::health::{RequestOutcome, SupervisionRequest, SupervisionStatus};
 
 /// Settings of the server core, taken from the configuration at start-up.
 #[derive(Debug, Clone)]
@@ -89,6 +90,8 @@ pub struct Effects {
     pub motion: Vec<MotionCommand>,
     /// A new drive power request to publish.
     pub servo: Option<ServoControl>,
+    /// A request to the orchestrator (GroupReset of a failed service).
+    pub supervision: Option<SupervisionRequest>,
 }
 
 impl Effects {
@@ -97,12 +100,14 @@ impl Effects {
         Self {
             motion: Vec::with_capacity(128),
             servo: None,
+            supervision: None,
         }
     }
 
     pub fn clear(&mut self) {
         self.motion.clear();
         self.servo = None;
+        self.supervision = None;
     }
 }
 
@@ -122,6 +127,10 @@ struct Session {
     telegram_number_rob_to_plc: u16,
     axes_group: u8,
 }
+
+/// A GroupReset asks the orchestrator to restart failed services only while its status is
+/// fresher than this (ms); without one, the services are not supervised by it.
+const SUPERVISION_SILENCE_MS: u64 = 1000;
 
 /// The SRCI server of one axes group.
 #[derive(Debug)]
@@ -147,6 +156,11 @@ pub struct Server {
     sync_supervisor: SyncSupervisor,
     /// The primary and secondary sequence.
     pub(crate) sequences: Sequences,
+    /// The orchestrator's last status and when it came (ms); none without an orchestrator
+    /// (services run by systemd, tests).
+    pub(crate) supervision: Option<(SupervisionStatus, u64)>,
+    /// Requests to the orchestrator sent so far.
+    supervision_requests: u64,
     /// StepMode of EnableRobot: 0 off, 1 BLENDING, 2 EXACT_STOP (both hold after each move,
     /// as this controller stops exactly anyway).
     pub(crate) step_mode: u8,
@@ -188,6 +202,8 @@ impl Server {
             sync_request: SyncRequest::default(),
             sync_supervisor: SyncSupervisor::default(),
             sequences: Sequences::default(),
+            supervision: None,
+            supervision_requests: 0,
             step_mode: 0,
             live: Vec::with_capacity(acr_length),
             motion: MotionLink::new(issuer, acr_length + 8, settings.planner_timeout_ms),
@@ -340,6 +356,7 @@ impl Server {
         }
         self.apply_job_updates(now, fx);
         self.progress_enable(now, fx);
+        self.continue_group_reset(now, fx);
         if self.telegram_state == ts::INITIALIZED {
             self.supervise_sync(now, fx);
             self.refresh_configuration(now);
@@ -400,6 +417,60 @@ impl Server {
         self.refresh_motion_progress(now);
     }
 
+    /// A new status of the orchestrator: a safe stop is an error the PLC sees (with its
+    /// cause); a GroupReset waiting for the services goes on once they run again.
+    pub fn on_supervision_status(
+        &mut self,
+        now: Now,
+        status: &SupervisionStatus,
+        fx: &mut Effects,
+    ) {
+        let was_stopped = self.supervision.is_some_and(|(s, _)| s.safe_stop != 0);
+        self.supervision = Some((*status, now.mono_ms));
+        if status.safe_stop != 0 && !was_stopped {
+            self.error_pending = true;
+            let mut text = [0u8; 150];
+            let text = write_text(
+                &mut text,
+                format_args!("safe stop: {}; GroupReset restarts it", status.reason()),
+            );
+            self.raise(
+                now,
+                MessageType::Controller,
+                severity::ERROR,
+                code::INTERNAL_ERROR,
+                text,
+            );
+        }
+        self.continue_group_reset(now, fx);
+    }
+
+    /// Whether the orchestrator reports a service down (and is there to restart it).
+    pub(crate) fn services_down(&self, now: Now) -> bool {
+        self.supervision.is_some_and(|(s, at)| {
+            now.mono_ms.saturating_sub(at) <= SUPERVISION_SILENCE_MS
+                && (s.safe_stop != 0 || s.all_running == 0)
+        })
+    }
+
+    /// A request id no other requester uses: this interpreter instance and a count.
+    pub(crate) fn next_supervision_request(&mut self) -> u64 {
+        self.supervision_requests += 1;
+        (self.motion.issuer() << 24) ^ self.supervision_requests
+    }
+
+    /// The outcome of supervision request `id`, once the orchestrator has answered it.
+    pub(crate) fn supervision_outcome(&self, id: u64) -> Option<(RequestOutcome, bool)> {
+        self.supervision
+            .filter(|(s, _)| s.request_id == id)
+            .map(|(s, _)| {
+                (
+                    RequestOutcome::from_wire(s.request_outcome),
+                    s.all_running != 0,
+                )
+            })
+    }
+
     /// A new drive feedback.
     pub fn on_servo_feedback(&mut self, now: Now, feedback: &ServoFeedback, fx: &mut Effects) {
         let restarted = self
@@ -437,22 +508,33 @@ impl Server {
         self.progress_enable(now, fx);
     }
 
-    fn on_planner_fault(&mut self, fault: PlannerFault, now: Now, fx: &mut Effects) {
-        self.error_pending = true;
-        if fault == PlannerFault::Restarted {
+    fn on_planner_fault(&mut self, event: PlannerEvent, now: Now, fx: &mut Effects) {
+        if event != PlannerEvent::Silent {
             // A new planner starts with the configured override; give it the current one.
             let mut o = MotionCommand::new(MotionCommandKind::Override);
             o.override_fraction = self.override_percent / 100.0;
             let _ = self.motion.submit(o, None, now.mono_ms, &mut fx.motion);
         }
-        let text = match fault {
-            PlannerFault::Restarted => {
+        let text = match event {
+            PlannerEvent::Replaced => {
+                // Nothing was in flight: a restart at rest is invisible to the PLC.
+                self.raise(
+                    now,
+                    MessageType::Controller,
+                    severity::INFO,
+                    0,
+                    "motion planner restarted at rest; nothing was lost",
+                );
+                return;
+            }
+            PlannerEvent::Restarted => {
                 "motion planner restarted: its commands ended with an error, GroupReset required"
             }
-            PlannerFault::Silent => {
+            PlannerEvent::Silent => {
                 "motion planner not responding: its commands ended with an error, GroupReset required"
             }
         };
+        self.error_pending = true;
         self.raise(
             now,
             MessageType::Controller,

@@ -52,6 +52,7 @@ struct Plc {
     partial: Vec<(u16, Vec<u8>)>,
     responses: Vec<(u16, Vec<u8>)>,
     motion: Vec<MotionCommand>,
+    supervision: Vec<shared_types::health::SupervisionRequest>,
     last_rx: Vec<u8>,
     last_ack: u16,
     /// Optional cyclic bytes after each header (PLC→robot, robot→PLC).
@@ -77,6 +78,7 @@ impl Plc {
             partial: Vec::new(),
             responses: Vec::new(),
             motion: Vec::new(),
+            supervision: Vec::new(),
             last_rx: Vec::new(),
             last_ack: 0,
             cyclic: (0, 0),
@@ -129,6 +131,7 @@ impl Plc {
         });
         self.server_allocations += allocations;
         self.motion.extend(fx.motion.iter().copied());
+        self.supervision.extend(fx.supervision);
         rx.truncate(n);
         self.collect(&rx);
         self.last_rx = rx;
@@ -1217,4 +1220,103 @@ fn step_mode_holds_the_primary_sequence_after_each_move() {
     let r = PayloadReader::new(&body);
     assert!(r.bit(t::exchange_configuration::response::STEP_MODE_EXACT_STOP_ACTIVE));
     assert!(!r.bit(t::exchange_configuration::response::STEP_MODE_BLENDING_ACTIVE));
+}
+
+fn supervision_status(
+    request_id: u64,
+    all_running: bool,
+    safe_stop: bool,
+) -> shared_types::health::SupervisionStatus {
+    let mut s = shared_types::health::SupervisionStatus::new(77);
+    s.generation = 1;
+    s.request_id = request_id;
+    s.request_outcome = shared_types::health::RequestOutcome::Done as u8;
+    s.all_running = u8::from(all_running);
+    s.safe_stop = u8::from(safe_stop);
+    s.set_reason(
+        "planner killed by signal 9; 2 failures within 60 s exceed orchestrator.max_restarts = 1",
+    );
+    s
+}
+
+#[test]
+fn a_safe_stop_is_an_error_and_group_reset_waits_for_the_services() {
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    let mut rm = request(t::read_messages::TYPE, 2, t::read_messages::request::LEN);
+    PayloadWriter::new(&mut rm).set_u8(t::read_messages::request::MESSAGE_LEVEL, 20);
+    plc.command(&mut server, 1, NEW, &rm);
+    server.on_supervision_status(plc.now(), &supervision_status(0, false, true), &mut fx);
+    plc.idle(&mut server);
+    let error_pending = shared_types::srci::telegram::status_bit::ERROR_PENDING;
+    assert_ne!(
+        RobotHeader::decode(&plc.last_rx).unwrap().status & error_pending,
+        0
+    );
+    let body = last_body(&plc, 1);
+    let text = &body[20..];
+    let text =
+        core::str::from_utf8(&text[..text.iter().position(|&b| b == 0).unwrap_or(text.len())])
+            .unwrap();
+    assert!(text.contains("planner killed by signal 9"), "{text}");
+
+    // GroupReset asks the orchestrator first; the planner's reset follows once all run.
+    plc.motion.clear();
+    plc.command(
+        &mut server,
+        2,
+        NEW,
+        &request(t::group_reset::TYPE, 2, t::group_reset::request::LEN),
+    );
+    let [reset] = plc.supervision[..] else {
+        panic!("one request: {:?}", plc.supervision);
+    };
+    assert_eq!(reset.kind, shared_types::health::RequestKind::Reset as u8);
+    assert!(
+        plc.motion
+            .iter()
+            .all(|c| c.kind != MotionCommandKind::Reset as u8)
+    );
+    assert!(
+        plc.last_response(2).is_none(),
+        "no answer while the services restart"
+    );
+    server.on_supervision_status(
+        plc.now(),
+        &supervision_status(reset.request_id, true, false),
+        &mut fx,
+    );
+    let planner_reset = fx
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::Reset as u8)
+        .copied()
+        .expect("the planner's reset follows");
+    server.on_motion_status(
+        plc.now(),
+        &status(5, &[(1, planner_reset.job, state::DONE, 0)]),
+        &mut fx,
+    );
+    plc.idle(&mut server);
+    assert_eq!(plc.last_response(2).unwrap().state, state::DONE);
+    assert_eq!(
+        RobotHeader::decode(&plc.last_rx).unwrap().status & error_pending,
+        0
+    );
+}
+
+#[test]
+fn without_an_orchestrator_group_reset_goes_to_the_planner_at_once() {
+    let (mut server, mut plc, _fx) = session(DriveState::Holding);
+    plc.command(
+        &mut server,
+        2,
+        NEW,
+        &request(t::group_reset::TYPE, 2, t::group_reset::request::LEN),
+    );
+    assert!(plc.supervision.is_empty());
+    assert!(
+        plc.motion
+            .iter()
+            .any(|c| c.kind == MotionCommandKind::Reset as u8)
+    );
 }

@@ -6,7 +6,9 @@ use std::time::Duration;
 
 use shared_types::bus::{self, Bus, BusError};
 use shared_types::config::Config;
-use shared_types::health::{HealthReporter, Service};
+use shared_types::health::{
+    HealthReporter, Service, SupervisionRequest, SupervisionStatus, topics as health_topics,
+};
 use shared_types::ipc::{
     LinkEvent, MotionCommand, MotionStatus, PlcTelegram, RobotTelegram, ServoControl,
     ServoFeedback, TELEGRAM_CAPACITY, topics,
@@ -50,6 +52,9 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
     let status = bus.subscriber::<MotionStatus>(topics::MOTION_STATUS)?;
     let feedback = bus.subscriber::<ServoFeedback>(topics::SERVO_FEEDBACK)?;
     let control = bus.publisher::<ServoControl>(topics::SERVO_CONTROL)?;
+    let supervision = bus.subscriber::<SupervisionStatus>(health_topics::SUPERVISION_STATUS)?;
+    let supervision_requests =
+        bus.publisher::<SupervisionRequest>(health_topics::SUPERVISION_CONTROL)?;
     shared_types::supervision::ready();
     let reply_timeout_ns = config.main.fieldbus.reply_timeout_ms * 1_000_000;
     let mut health = HealthReporter::new(&bus, Service::Interpreter, reply_timeout_ns)?;
@@ -97,6 +102,9 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
         if let Some(f) = bus::receive_latest(&feedback)? {
             server.on_servo_feedback(t, &f, &mut fx);
         }
+        if let Some(s) = bus::receive_latest(&supervision)? {
+            server.on_supervision_status(t, &s, &mut fx);
+        }
         for _ in 0..TELEGRAMS_PER_PASS {
             let Some(sample) = telegrams.receive().map_err(|e| BusError {
                 action: "receive on",
@@ -137,6 +145,9 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
         if let Some(c) = fx.servo.or(republish.then(|| server.servo_control())) {
             bus::publish(&control, c)?;
             control_published_ms = t.mono_ms;
+        }
+        if let Some(r) = fx.supervision {
+            bus::publish(&supervision_requests, r)?;
         }
         fx.clear();
         // Written by the saver thread, so the telegram loop never waits for the disk.

@@ -89,6 +89,14 @@ pub enum LiveKind {
     },
     /// GroupJog: the job of the jog motion (0 = none) and whether it is incremental.
     Jog { job: u32, incremental: bool },
+    /// GroupReset waiting for the orchestrator to restart failed services (request
+    /// `request_id`, last sent at `sent_ms`, first at `since_ms`); the planner's reset
+    /// follows.
+    ServicesReset {
+        request_id: u64,
+        sent_ms: u64,
+        since_ms: u64,
+    },
     /// A command executed by the planner as `job`; `progress` last sent (percent × 100);
     /// `aborts_moves` for a GroupStop issued while moves were in flight (AbortedSequence).
     Job {
@@ -311,6 +319,7 @@ impl Server {
             LiveKind::ServerLog => self.update_read_server_log(i, msg, now),
             LiveKind::Enable { .. } => self.update_enable_robot(i, msg, now, fx),
             LiveKind::Jog { .. } => self.update_group_jog(i, msg, now, fx),
+            LiveKind::ServicesReset { .. } => {}
             // ReturnToPrimary is disabled by an update with Enable = FALSE.
             LiveKind::Job { .. } if self.live[i].command_type == t::return_to_primary::TYPE => {
                 self.update_return_to_primary(msg, now, fx)

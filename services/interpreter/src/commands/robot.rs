@@ -1,13 +1,21 @@
 //! Commands about the robot as a whole: EnableRobot, GroupReset, ReadActualPosition.
 
+use shared_types::health::{RequestOutcome, SupervisionRequest};
 use shared_types::ipc::{DriveState, MotionCommand, MotionCommandKind};
-use shared_types::srci::message::{CommandHeader, code, state};
+use shared_types::srci::message::{CommandHeader, code, severity, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
 use shared_types::srci::tables::{enable_robot as er, read_actual_position as rap};
 
 use super::LiveKind;
-use crate::server::{Effects, Now, Server};
+use crate::messages::MessageType;
+use crate::server::{Effects, Now, Server, write_text};
 use crate::tcp_pose::tcp_pose;
+
+/// A GroupReset that waits this long (ms) for the orchestrator to restart failed services
+/// ends in ERROR.
+const SERVICES_RESET_TIMEOUT_MS: u64 = 15_000;
+/// Meanwhile its request is re-sent this often (ms), in case the orchestrator missed it.
+const SERVICES_RESET_RESEND_MS: u64 = 1000;
 
 impl Server {
     pub(crate) fn enable_robot(
@@ -164,8 +172,27 @@ impl Server {
         self.servo_control.seq += 1;
         self.servo_control.fault_reset += 1;
         fx.servo = Some(self.servo_control);
-        // DONE comes from the planner once it has cleared its error: then every service is
-        // back in a consistent state.
+        if self.services_down(now) {
+            // First the orchestrator starts the failed services again.
+            let request_id = self.next_supervision_request();
+            fx.supervision = Some(SupervisionRequest::reset(request_id));
+            self.keep_live(
+                cmd_id,
+                h,
+                LiveKind::ServicesReset {
+                    request_id,
+                    sent_ms: now.mono_ms,
+                    since_ms: now.mono_ms,
+                },
+            );
+            return;
+        }
+        self.reset_planner(cmd_id, h, now, fx);
+    }
+
+    /// DONE comes from the planner once it has cleared its error: then every service is
+    /// back in a consistent state.
+    fn reset_planner(&mut self, cmd_id: u16, h: CommandHeader, now: Now, fx: &mut Effects) {
         self.submit_job(
             cmd_id,
             h,
@@ -173,6 +200,68 @@ impl Server {
             now,
             fx,
         );
+    }
+
+    /// Moves a GroupReset that waits for the orchestrator on: to the planner's reset once
+    /// every service runs again, to ERROR if the orchestrator could not restart them or
+    /// does not answer; the request is re-sent every second meanwhile.
+    pub(crate) fn continue_group_reset(&mut self, now: Now, fx: &mut Effects) {
+        let Some(i) = self
+            .live
+            .iter()
+            .position(|l| matches!(l.kind, LiveKind::ServicesReset { .. }))
+        else {
+            return;
+        };
+        let LiveKind::ServicesReset {
+            request_id,
+            sent_ms,
+            since_ms,
+        } = self.live[i].kind
+        else {
+            return;
+        };
+        let (cmd_id, h) = (self.live[i].cmd_id, self.live_header(i));
+        match self.supervision_outcome(request_id) {
+            Some((RequestOutcome::Done, true)) => {
+                self.live.swap_remove(i);
+                self.reset_planner(cmd_id, h, now, fx);
+            }
+            Some((RequestOutcome::Rejected | RequestOutcome::Failed, _)) => {
+                self.fail_services_reset(
+                    i,
+                    "the orchestrator could not restart the failed service",
+                    now,
+                );
+            }
+            _ if now.mono_ms.saturating_sub(since_ms) > SERVICES_RESET_TIMEOUT_MS => {
+                self.fail_services_reset(i, "the orchestrator did not answer within 15 s", now);
+            }
+            _ if now.mono_ms.saturating_sub(sent_ms) >= SERVICES_RESET_RESEND_MS => {
+                fx.supervision = Some(SupervisionRequest::reset(request_id));
+                self.live[i].kind = LiveKind::ServicesReset {
+                    request_id,
+                    sent_ms: now.mono_ms,
+                    since_ms,
+                };
+            }
+            _ => {}
+        }
+    }
+
+    /// Ends the GroupReset `i` that waited for the orchestrator with an error and its cause.
+    fn fail_services_reset(&mut self, i: usize, cause: &str, now: Now) {
+        let (cmd_id, h) = (self.live[i].cmd_id, self.live_header(i));
+        let mut text = [0u8; 150];
+        let text = write_text(&mut text, format_args!("GroupReset: {cause}"));
+        self.raise(
+            now,
+            MessageType::Controller,
+            severity::ERROR,
+            code::INTERNAL_ERROR,
+            text,
+        );
+        self.respond(cmd_id, h, state::ERROR, code::INTERNAL_ERROR, now, |_| {});
     }
 
     pub(crate) fn read_actual_position(
