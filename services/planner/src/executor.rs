@@ -11,15 +11,17 @@ use shared_types::ipc::{
     AXES, DriveState, JointPoint, MotionCommand, MotionCommandKind, MotionStatus, SETPOINT_WINDOW,
     ServoFeedback, ServoSetpoint,
 };
+use shared_types::pose;
 use shared_types::srci::message::{code, state};
 
 use crate::events::EventLog;
 use crate::joint_move::{self, JointMove};
-use crate::kinematics::selection::{CartesianTarget, ConfigMode, ConfigModes, TurnMode, select};
+use crate::kinematics::selection::{CartesianTarget, ConfigModes, TurnMode, select};
 use crate::kinematics::turns::TurnNumbers;
 use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
+use crate::linear_move::{self, Arm, LinearMove, LinearPlan, TcpLimits};
 use crate::motion::{Dynamics, Motion, Phase};
-use crate::queue::MoveQueue;
+use crate::queue::{MoveQueue, QueuedMove};
 
 /// Joint speed (rad/s) below which the servo feedback counts as standing still.
 const REST_VELOCITY: f64 = 1e-3;
@@ -51,8 +53,8 @@ pub struct Executor {
     pending_stop: Option<u32>,
     /// A GroupInterrupt waiting for the arm to stand still.
     pending_interrupt: Option<u32>,
-    /// The command of the move taken from the queue last (the running one, if any).
-    running: Option<MotionCommand>,
+    /// The move taken from the queue last (the running one, if any).
+    running: Option<QueuedMove>,
     /// `(issuer, seq)` of the newest accepted command.
     accepted: Option<(u64, u64)>,
     events: EventLog,
@@ -70,6 +72,7 @@ impl Executor {
         Self {
             dynamics: Dynamics {
                 limits: config.robot.limits_rad(),
+                tcp: TcpLimits::from_config(&config.robot.cartesian),
                 override_reserve: config.main.planner.override_reserve,
             },
             kinematics: Kinematics::new(&config.robot.kinematics),
@@ -130,6 +133,7 @@ impl Executor {
         self.finish_stop();
         if self.synced && drive.is_enabled() {
             if self.tick <= feedback.tick {
+                self.prepare_next_move();
                 self.advance(dt);
                 self.finish_stop();
             }
@@ -214,11 +218,10 @@ impl Executor {
         self.status.acked_seq = command.seq;
         let job = command.job;
         match MotionCommandKind::from_wire(command.kind) {
-            Some(MotionCommandKind::MoveAxes) => self.accept_move(command, drive),
-            Some(MotionCommandKind::MoveDirect) => self.accept_move_direct(command, drive),
-            Some(MotionCommandKind::MoveLinear) => {
-                self.report(job, state::ERROR, code::NOT_IMPLEMENTED)
+            Some(MotionCommandKind::MoveAxes | MotionCommandKind::MoveLinear) => {
+                self.accept_move(command, drive)
             }
+            Some(MotionCommandKind::MoveDirect) => self.accept_move_direct(command, drive),
             Some(MotionCommandKind::Stop) => {
                 self.stop(code::ABORTED_BY_GROUP_STOP);
                 if let Some(previous) = self.pending_stop.replace(job) {
@@ -251,10 +254,20 @@ impl Executor {
         }
     }
 
+    /// MoveAxesAbsolute and MoveLinearAbsolute: checked and planned from where the move
+    /// will most likely start, so that every error is reported before the arm moves, then
+    /// buffered. A joint move is planned again when it starts; a linear move keeps its plan
+    /// if it starts there (see [`prepare_next_move`](Self::prepare_next_move)).
     fn accept_move(&mut self, command: &MotionCommand, drive: DriveState) {
         let job = command.job;
-        if let Err(e) = joint_move::validate(command, &self.dynamics.limits) {
-            return self.report(job, state::ERROR, e.code());
+        let linear = command.kind == MotionCommandKind::MoveLinear as u8;
+        let valid = if linear {
+            linear_move::validate(command).map_err(|e| e.code())
+        } else {
+            joint_move::validate(command, &self.dynamics.limits).map_err(|e| e.code())
+        };
+        if let Err(code) = valid {
+            return self.report(job, state::ERROR, code);
         }
         if self.status.error_code != 0 {
             return self.report(job, state::ERROR, code::DISABLED_DUE_TO_ERROR);
@@ -262,23 +275,82 @@ impl Executor {
         if !drive.is_enabled() {
             return self.report(job, state::ERROR, code::ROBOT_DISABLED);
         }
-        // Check the requested duration from where the move will most likely start; the
-        // move is planned again when it starts.
         let start = if command.aborting {
             self.motion.point.q
         } else {
             self.sequence_end()
         };
-        let reserve = self.dynamics.override_reserve;
-        if let Err(e) = JointMove::plan(start, command, &self.dynamics.limits, reserve) {
-            return self.report(job, state::ERROR, e.code());
-        }
+        let planned = if linear {
+            self.plan_linear(start, command).map(|plan| {
+                let mut command = *command;
+                command.joints_rad = plan.target();
+                QueuedMove {
+                    command,
+                    linear: Some(plan),
+                }
+            })
+        } else {
+            let reserve = self.dynamics.override_reserve;
+            JointMove::plan(start, command, &self.dynamics.limits, reserve)
+                .map(|_| QueuedMove::joint(*command))
+                .map_err(|e| e.code())
+        };
+        let queued = match planned {
+            Ok(queued) => queued,
+            Err(code) => return self.report(job, state::ERROR, code),
+        };
         if command.aborting {
             self.stop(code::ABORTED_BY_MOTION_COMMAND);
         }
-        match self.queue.push(*command) {
+        match self.queue.push(queued) {
             Ok(()) => self.report(job, state::BUFFERED, 0),
             Err(_) => self.report(job, state::ERROR, code::INTERNAL_ERROR),
+        }
+    }
+
+    /// The linear move of `command` from `start`, or the SRCI code why there is none.
+    fn plan_linear(&self, start: [f64; AXES], command: &MotionCommand) -> Result<LinearPlan, u16> {
+        let geometry = self.geometry.as_ref().ok_or(code::TARGET_UNREACHABLE)?;
+        let arm = Arm {
+            kinematics: &self.kinematics,
+            geometry,
+            joints: &self.dynamics.limits,
+            tcp: &self.dynamics.tcp,
+        };
+        LinearMove::plan(start, command, &arm, self.dynamics.override_reserve).map_err(|e| e.code())
+    }
+
+    /// Plans the linear move at the front of a standing, running sequence again from where
+    /// the arm stands, if it was planned from elsewhere (after an aborting move's stop or
+    /// an interrupt); a move that cannot start from there ends with its error. Until then
+    /// the motion (and a copy of it in the window) waits. Runs before the committed tick of
+    /// a step only, never in a replayed one: the servo used a window in which the move
+    /// waited, and the replay must wait too.
+    fn prepare_next_move(&mut self) {
+        while self.motion.phase == Phase::Idle && !self.motion.sequence_paused {
+            let start = self.motion.point.q;
+            let Some(front) = self.queue.front_mut() else {
+                return;
+            };
+            let stale = front.command.kind == MotionCommandKind::MoveLinear as u8
+                && front.linear.is_none_or(|plan| plan.start() != &start);
+            if !stale {
+                return;
+            }
+            let command = front.command;
+            match self.plan_linear(start, &command) {
+                Ok(plan) => {
+                    if let Some(front) = self.queue.front_mut() {
+                        front.command.joints_rad = plan.target();
+                        front.linear = Some(plan);
+                    }
+                    return;
+                }
+                Err(code) => {
+                    self.queue.pop_front();
+                    self.report(command.job, state::ERROR, code);
+                }
+            }
         }
     }
 
@@ -310,18 +382,13 @@ impl Executor {
         start: &[f64; AXES],
     ) -> Result<[f64; AXES], u16> {
         let geometry = self.geometry.ok_or(code::TARGET_UNREACHABLE)?;
-        let modes = command.config_modes;
         let target = CartesianTarget {
-            flange: shared_types::pose::isometry(command.pose),
+            // The TCP target and the tool give the flange: pose · tool⁻¹.
+            flange: pose::isometry(command.pose) * pose::isometry(command.tool).inverse(),
             config: ArmConfig::from_bits(command.arm_config),
             turns: TurnNumbers::from_wire(command.turn_numbers),
-            config_modes: ConfigModes {
-                shoulder: ConfigMode::from_wire(modes[0])
-                    .ok_or(code::INVALID_CONFIG_MODE_SHOULDER)?,
-                elbow: ConfigMode::from_wire(modes[1]).ok_or(code::INVALID_CONFIG_MODE_ELBOW)?,
-                wrist: ConfigMode::from_wire(modes[2]).ok_or(code::INVALID_CONFIG_MODE_WRIST)?,
-            },
-            turn_mode: TurnMode::from_wire(command.turn_mode).ok_or(code::INVALID_TURN_MODE)?,
+            config_modes: ConfigModes::from_wire(command.config_modes).map_err(|e| e.code())?,
+            turn_mode: TurnMode::parse(command.turn_mode).map_err(|e| e.code())?,
         };
         select(&geometry, &target, start, &self.dynamics.limits).map_err(|e| e.code())
     }
@@ -329,7 +396,7 @@ impl Executor {
     /// Where the arm will stand when the primary sequence has been executed.
     fn sequence_end(&self) -> [f64; AXES] {
         match (self.queue.back(), self.motion.phase) {
-            (Some(last), _) => last.joints_rad,
+            (Some(last), _) => last.command.joints_rad,
             (None, Phase::Running { plan, .. }) => plan.target(),
             (None, _) => self.motion.point.q,
         }
@@ -340,7 +407,7 @@ impl Executor {
     fn interrupt(&mut self, job: u32) {
         self.motion.sequence_paused = true;
         if let Some(interrupted) = self.motion.brake() {
-            if let Some(command) = self.running.filter(|c| c.job == interrupted) {
+            if let Some(command) = self.running.filter(|c| c.command.job == interrupted) {
                 // Room is kept for exactly this move; continuing plans it again from the stop.
                 let _ = self.queue.push_front(command);
             }
@@ -360,8 +427,8 @@ impl Executor {
         if let Some(job) = self.motion.brake() {
             self.report(job, state::ABORTED, reason);
         }
-        while let Some(command) = self.queue.pop_front() {
-            self.report(command.job, state::ABORTED, reason);
+        while let Some(queued) = self.queue.pop_front() {
+            self.report(queued.command.job, state::ABORTED, reason);
         }
         // Nothing is left to continue.
         if reason == code::ABORTED_BY_GROUP_STOP {
@@ -376,8 +443,8 @@ impl Executor {
             self.report(job, state, reason);
         }
         self.motion.phase = Phase::Idle;
-        while let Some(command) = self.queue.pop_front() {
-            self.report(command.job, state, reason);
+        while let Some(queued) = self.queue.pop_front() {
+            self.report(queued.command.job, state, reason);
         }
     }
 
@@ -483,11 +550,11 @@ impl Executor {
         }
         s.override_fraction = self.override_target;
         s.sequence_paused = self.motion.sequence_paused;
-        // The sign of q̇·q̈ tells speeding up from slowing down along the straight joint path.
-        let power: f64 = point.qd.iter().zip(&point.qdd).map(|(v, a)| v * a).sum();
+        // The path acceleration tells speeding up from slowing down, on any path.
+        let (_, path_acceleration) = self.motion.path_rate;
         s.moving = point.qd.iter().any(|v| v.abs() > MOVING_VELOCITY);
-        s.accelerating = s.moving && power > 1e-9;
-        s.decelerating = s.moving && power < -1e-9;
+        s.accelerating = s.moving && path_acceleration > 1e-9;
+        s.decelerating = s.moving && path_acceleration < -1e-9;
         s.constant_velocity = s.moving && !s.accelerating && !s.decelerating;
     }
 }

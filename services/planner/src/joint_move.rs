@@ -37,6 +37,8 @@ pub enum MoveError {
     InvalidVelocityScale(f64),
     #[error("acceleration scale {0} is outside (0, 1]")]
     InvalidAccelerationScale(f64),
+    #[error("deceleration scale {0} is outside (0, 1]")]
+    InvalidDecelerationScale(f64),
     #[error("jerk scale {0} is outside (0, 1]")]
     InvalidJerkScale(f64),
     #[error(
@@ -54,6 +56,7 @@ impl MoveError {
             Self::InvalidTarget { .. } => code::INVALID_JOINT_POSITION,
             Self::InvalidVelocityScale(_) => code::INVALID_VELOCITY_RATE,
             Self::InvalidAccelerationScale(_) => code::INVALID_ACCELERATION_RATE,
+            Self::InvalidDecelerationScale(_) => code::INVALID_DECELERATION_RATE,
             Self::InvalidJerkScale(_) => code::INVALID_JERK_RATE,
             Self::InvalidDuration { .. } => code::INVALID_TIME,
         }
@@ -67,21 +70,38 @@ pub fn validate(command: &MotionCommand, limits: &JointLimitsRad) -> Result<(), 
         if !target_rad.is_finite() {
             return Err(MoveError::InvalidTarget { axis });
         }
-        if target_rad < limits.min[axis] {
-            return Err(MoveError::BelowLowerLimit {
-                axis,
-                target_rad,
-                limit_rad: limits.min[axis],
-            });
-        }
-        if target_rad > limits.max[axis] {
-            return Err(MoveError::AboveUpperLimit {
-                axis,
-                target_rad,
-                limit_rad: limits.max[axis],
-            });
-        }
+        check_limits(axis, target_rad, limits, 0.0)?;
     }
+    validate_timing(command)
+}
+
+/// Checks joint `axis` at `q_rad` against its limits narrowed by `margin_rad` on both sides.
+pub fn check_limits(
+    axis: usize,
+    q_rad: f64,
+    limits: &JointLimitsRad,
+    margin_rad: f64,
+) -> Result<(), MoveError> {
+    if q_rad < limits.min[axis] + margin_rad {
+        return Err(MoveError::BelowLowerLimit {
+            axis,
+            target_rad: q_rad,
+            limit_rad: limits.min[axis],
+        });
+    }
+    if q_rad > limits.max[axis] - margin_rad {
+        return Err(MoveError::AboveUpperLimit {
+            axis,
+            target_rad: q_rad,
+            limit_rad: limits.max[axis],
+        });
+    }
+    Ok(())
+}
+
+/// Checks the timing parameters of any move: the velocity, acceleration, deceleration and
+/// jerk scales in (0, 1], the duration finite and not negative.
+pub fn validate_timing(command: &MotionCommand) -> Result<(), MoveError> {
     let in_unit = |x: f64| x > 0.0 && x <= 1.0;
     if !in_unit(command.velocity_scale) {
         return Err(MoveError::InvalidVelocityScale(command.velocity_scale));
@@ -89,6 +109,11 @@ pub fn validate(command: &MotionCommand, limits: &JointLimitsRad) -> Result<(), 
     if !in_unit(command.acceleration_scale) {
         return Err(MoveError::InvalidAccelerationScale(
             command.acceleration_scale,
+        ));
+    }
+    if !in_unit(command.deceleration_scale) {
+        return Err(MoveError::InvalidDecelerationScale(
+            command.deceleration_scale,
         ));
     }
     if !in_unit(command.jerk_scale) {
@@ -108,10 +133,64 @@ pub fn validate(command: &MotionCommand, limits: &JointLimitsRad) -> Result<(), 
 pub struct PathLimits {
     /// Largest `ṡ`, 1/s.
     pub velocity: f64,
-    /// Largest `|s̈|`, 1/s².
+    /// Largest `s̈` while speeding up, 1/s².
     pub acceleration: f64,
+    /// Largest `−s̈` of the braking ramp at the end of the move, 1/s².
+    pub deceleration: f64,
     /// Largest `|s⃛|`, 1/s³.
     pub jerk: f64,
+}
+
+impl PathLimits {
+    /// Largest `|s̈|` the move may use at all: what a stop on the path brakes with.
+    pub fn braking(&self) -> f64 {
+        self.acceleration.max(self.deceleration)
+    }
+}
+
+/// The time scaling of one move along its path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timing {
+    /// Path limits from the robot's limits and the command's rates: what the move may do in
+    /// total, override changes and stops included.
+    pub limits: PathLimits,
+    /// The profile, planned with the acceleration reserve held back for override changes.
+    pub profile: DoubleS,
+    /// Largest rate of change of the override (1/s) the reserve pays for.
+    pub override_rate: f64,
+}
+
+impl Timing {
+    /// The timing of a move with the path limits `limits`: the profile is planned with the
+    /// share `reserve` in [0, 1) of the acceleration and deceleration held back for override
+    /// changes, and stretched to `requested_s` if that is positive.
+    ///
+    /// With `|s̈_plan| ≤ (1 − r)·a` (`d` while braking) and `|ṡ_plan| ≤ v`, time scaling by
+    /// σ ≤ 1 with `|σ̇| ≤ r·min(a, d)/v` gives `|s̈| ≤ |s̈_plan|·σ² + |ṡ_plan|·|σ̇| ≤ max(a, d)`,
+    /// the [`braking`](PathLimits::braking) limit.
+    pub fn plan(limits: PathLimits, reserve: f64, requested_s: f64) -> Result<Self, MoveError> {
+        let fastest = DoubleS::new(
+            limits.velocity,
+            (1.0 - reserve) * limits.acceleration,
+            (1.0 - reserve) * limits.deceleration,
+            limits.jerk,
+        );
+        let profile = if requested_s <= 0.0 {
+            fastest
+        } else if requested_s < fastest.duration() * (1.0 - DURATION_TOLERANCE) {
+            return Err(MoveError::InvalidDuration {
+                requested_s,
+                shortest_s: fastest.duration(),
+            });
+        } else {
+            fastest.stretched(requested_s)
+        };
+        Ok(Self {
+            limits,
+            profile,
+            override_rate: reserve * limits.acceleration.min(limits.deceleration) / limits.velocity,
+        })
+    }
 }
 
 /// The outcome of planning a MoveAxes from a start position.
@@ -133,21 +212,16 @@ pub struct JointMove {
     start: [f64; AXES],
     target: [f64; AXES],
     delta: [f64; AXES],
-    /// Path limits from the scaled joint limits (what the joints may do in total).
-    limits: PathLimits,
-    /// The profile, planned with the acceleration reserve held back for override changes.
-    profile: DoubleS,
-    /// Largest rate of change of the override (1/s) the reserve pays for.
-    override_rate: f64,
+    /// Time scaling within the scaled joint limits.
+    timing: Timing,
 }
 
 impl JointMove {
     /// Plans the move of `command` (validated with [`validate`]) from `start`.
     ///
     /// `reserve` in [0, 1) is the share of the acceleration limit held back so that the
-    /// override may change during the move at [`override_rate`](Self::override_rate): with
-    /// `|s̈_plan| ≤ (1 − r)·a_s` and `|ṡ_plan| ≤ v_s`, time scaling by σ ≤ 1 with
-    /// `|σ̇| ≤ r·a_s/v_s` gives `|s̈| ≤ |s̈_plan|·σ² + |ṡ_plan|·|σ̇| ≤ a_s`.
+    /// override may change during the move (see [`Timing::plan`]). The deceleration scale
+    /// sets the braking ramp at the end.
     pub fn plan(
         start: [f64; AXES],
         command: &MotionCommand,
@@ -171,32 +245,14 @@ impl JointMove {
         let path_limits = PathLimits {
             velocity: path(&limits.velocity, command.velocity_scale),
             acceleration: path(&limits.acceleration, command.acceleration_scale),
+            deceleration: path(&limits.acceleration, command.deceleration_scale),
             jerk: path(&limits.jerk, command.jerk_scale),
-        };
-        let fastest = DoubleS::new(
-            path_limits.velocity,
-            (1.0 - reserve) * path_limits.acceleration,
-            path_limits.jerk,
-        );
-        let requested = command.duration_s;
-        let profile = if requested > 0.0 {
-            if requested < fastest.duration() * (1.0 - DURATION_TOLERANCE) {
-                return Err(MoveError::InvalidDuration {
-                    requested_s: requested,
-                    shortest_s: fastest.duration(),
-                });
-            }
-            fastest.stretched(requested)
-        } else {
-            fastest
         };
         Ok(Plan::Move(Self {
             start,
             target,
             delta,
-            limits: path_limits,
-            profile,
-            override_rate: reserve * path_limits.acceleration / path_limits.velocity,
+            timing: Timing::plan(path_limits, reserve, command.duration_s)?,
         }))
     }
 
@@ -205,19 +261,9 @@ impl JointMove {
         self.target
     }
 
-    /// The path-parameter profile.
-    pub fn profile(&self) -> &DoubleS {
-        &self.profile
-    }
-
-    /// The path limits the joint limits allow for this move (without reserve).
-    pub fn limits(&self) -> PathLimits {
-        self.limits
-    }
-
-    /// Largest |σ̇| of the override time scaling that keeps the joint accelerations in limits.
-    pub fn override_rate(&self) -> f64 {
-        self.override_rate
+    /// The time scaling: path limits from the scaled joint limits, profile, override rate.
+    pub fn timing(&self) -> &Timing {
+        &self.timing
     }
 
     /// The joint point at path position `s` with path velocity `sd` and acceleration `sdd`.
@@ -270,11 +316,37 @@ mod tests {
         c.velocity_scale = 0.5;
         let m = planned([0.0; AXES], &c);
         // Joint 0: 0.5·1/1 = 0.5; joint 2: 0.5·2/2 = 0.5; joint 5: 0.5·3/0.5 = 3.
-        assert!((m.limits().velocity - 0.5).abs() < 1e-12);
-        assert!((m.limits().acceleration - 2.0).abs() < 1e-12);
-        assert!((m.limits().jerk - 20.0).abs() < 1e-12);
-        assert!((m.override_rate() - 0.2 * 2.0 / 0.5).abs() < 1e-12);
-        assert!(m.profile().peak_acceleration() <= 0.8 * 2.0 + 1e-12);
+        assert!((m.timing().limits.velocity - 0.5).abs() < 1e-12);
+        assert!((m.timing().limits.acceleration - 2.0).abs() < 1e-12);
+        assert!((m.timing().limits.deceleration - 2.0).abs() < 1e-12);
+        assert!((m.timing().limits.jerk - 20.0).abs() < 1e-12);
+        assert!((m.timing().override_rate - 0.2 * 2.0 / 0.5).abs() < 1e-12);
+        assert!(m.timing().profile.peak_acceleration() <= 0.8 * 2.0 + 1e-12);
+    }
+
+    #[test]
+    fn the_deceleration_scale_sets_the_braking_ramp_only() {
+        let mut c = move_to([1.0, 0.0, -2.0, 0.0, 0.0, 0.5]);
+        c.acceleration_scale = 0.5;
+        c.deceleration_scale = 0.5;
+        let equal = planned([0.0; AXES], &c);
+        c.deceleration_scale = 0.25;
+        let low = planned([0.0; AXES], &c);
+        // Joint 2 decides: 4 rad/s² over 2 rad, times the scales.
+        assert!((low.timing().limits.acceleration - 1.0).abs() < 1e-12);
+        assert!((low.timing().limits.deceleration - 0.5).abs() < 1e-12);
+        assert!((low.timing().limits.braking() - 1.0).abs() < 1e-12);
+        assert_eq!(
+            low.timing().profile.peak_acceleration(),
+            equal.timing().profile.peak_acceleration()
+        );
+        assert!(low.timing().profile.peak_deceleration() <= 0.8 * 0.5 + 1e-12);
+        assert!(low.timing().profile.duration() > equal.timing().profile.duration());
+        // The override reserve pays for the smaller of the two.
+        assert!((low.timing().override_rate - 0.2 * 0.5 / 1.0).abs() < 1e-12);
+        // With equal scales the profile is the symmetric one of the acceleration scale.
+        let symmetric = DoubleS::new(1.0, 0.8 * 1.0, 0.8 * 1.0, 20.0);
+        assert_eq!(equal.timing().profile, symmetric);
     }
 
     #[test]
@@ -323,6 +395,9 @@ mod tests {
         c.acceleration_scale = 1.5;
         assert_eq!(validate(&c, &limits()).unwrap_err().code(), 0x8D01);
         c.acceleration_scale = 1.0;
+        c.deceleration_scale = -0.5;
+        assert_eq!(validate(&c, &limits()).unwrap_err().code(), 0x8D06);
+        c.deceleration_scale = 1.0;
         c.jerk_scale = f64::NAN;
         assert_eq!(validate(&c, &limits()).unwrap_err().code(), 0x8D11);
         c.jerk_scale = 1.0;
@@ -333,10 +408,10 @@ mod tests {
     #[test]
     fn requested_duration_stretches_or_is_rejected() {
         let mut c = move_to([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
-        let fastest = planned([0.0; AXES], &c).profile().duration();
+        let fastest = planned([0.0; AXES], &c).timing().profile.duration();
         c.duration_s = 2.0 * fastest;
         let m = planned([0.0; AXES], &c);
-        assert!((m.profile().duration() - 2.0 * fastest).abs() < 1e-12);
+        assert!((m.timing().profile.duration() - 2.0 * fastest).abs() < 1e-12);
         c.duration_s = 0.9 * fastest;
         let e = JointMove::plan([0.0; AXES], &c, &limits(), 0.2).unwrap_err();
         assert_eq!(e.code(), 0x8D34);

@@ -1,20 +1,25 @@
-//! The planner service: joint-space point-to-point moves for the SRCI controller.
+//! The planner service: joint-space point-to-point and Cartesian straight-line moves for the
+//! SRCI controller.
 //!
-//! Pure cores: [`profile`] (the double-S path profile), [`joint_move`] (synchronized PTP
-//! moves), [`brake`] (stops on the path), [`motion`] (one tick of commanded motion),
-//! [`queue`] (the primary sequence), [`events`] (paced job events), [`executor`] (the
-//! per-tick state machine) and [`kinematics`] (forward kinematics, Jacobian, analytic
-//! inverse kinematics, configuration bits and turn numbers). [`service`] is the
-//! process loop around them.
+//! Pure cores: [`profile`] (the double-S path profile, with separate acceleration and
+//! deceleration), [`joint_move`] (synchronized PTP moves), [`linear_move`] (straight lines
+//! of the TCP, followed by the analytic inverse kinematics), [`brake`] (stops on the path),
+//! [`motion`] (one tick of commanded motion on either path), [`queue`] (the primary
+//! sequence), [`events`] (paced job events), [`executor`] (the per-tick state machine) and
+//! [`kinematics`] (forward kinematics, Jacobian, analytic inverse kinematics, configuration
+//! bits and turn numbers). [`service`] is the process loop around them.
 
 pub mod brake;
 pub mod events;
 pub mod executor;
 pub mod joint_move;
 pub mod kinematics;
+pub mod linear_move;
 pub mod motion;
 pub mod profile;
 pub mod queue;
 pub mod service;
+#[cfg(test)]
+mod test_support;
 
 pub use service::{PlannerError, run};

@@ -4,12 +4,52 @@
 //! setpoint window with exactly the points the real motion will take if nothing changes.
 
 use shared_types::config::JointLimitsRad;
-use shared_types::ipc::{AXES, JointPoint};
+use shared_types::ipc::{AXES, JointPoint, MotionCommandKind};
 use shared_types::srci::message::state;
 
 use crate::brake::PathBrake;
-use crate::joint_move::{JointMove, Plan};
+use crate::joint_move::{JointMove, Plan, Timing};
+use crate::linear_move::{LinearMove, LinearPlan, TcpLimits};
 use crate::queue::MoveQueue;
+
+/// The path of a running move: a straight line in joint space or of the TCP.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "the motion is copied ahead every tick, where boxing would allocate"
+)]
+pub enum Path {
+    /// MoveAxes (and MoveDirect, a joint move to a Cartesian target).
+    Joint(JointMove),
+    /// MoveLinear.
+    Linear(LinearMove),
+}
+
+impl Path {
+    /// The time scaling of the move.
+    pub fn timing(&self) -> &Timing {
+        match self {
+            Self::Joint(m) => m.timing(),
+            Self::Linear(m) => m.timing(),
+        }
+    }
+
+    /// Joint position where the move ends.
+    pub fn target(&self) -> [f64; AXES] {
+        match self {
+            Self::Joint(m) => m.target(),
+            Self::Linear(m) => m.target(),
+        }
+    }
+
+    /// The joint point at `(s, ṡ, s̈)`, next to `previous` (the point of the last tick).
+    pub fn point(&self, s: f64, sd: f64, sdd: f64, previous: &[f64; AXES]) -> JointPoint {
+        match self {
+            Self::Joint(m) => m.point(s, sd, sdd),
+            Self::Linear(m) => m.point(s, sd, sdd, previous),
+        }
+    }
+}
 
 /// What the arm is doing.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -17,9 +57,9 @@ pub enum Phase {
     /// Standing still at the commanded position.
     Idle,
     /// Executing the move of `job`; `tau` is the time along its profile.
-    Running { job: u32, plan: JointMove, tau: f64 },
+    Running { job: u32, plan: Path, tau: f64 },
     /// Stopping on the path of an aborted move.
-    Braking { plan: JointMove, brake: PathBrake },
+    Braking { plan: Path, brake: PathBrake },
 }
 
 /// Limits the moves are planned with.
@@ -27,6 +67,8 @@ pub enum Phase {
 pub struct Dynamics {
     /// Joint limits of the robot (rad-based SI units).
     pub limits: JointLimitsRad,
+    /// TCP limits of the robot (m-based SI units).
+    pub tcp: TcpLimits,
     /// Share of the acceleration limit held back for override changes.
     pub override_reserve: f64,
 }
@@ -38,6 +80,9 @@ pub struct Motion {
     pub point: JointPoint,
     /// Path position of the running or braking move, 0..1.
     pub path_position: f64,
+    /// Path velocity and acceleration `(ṡ, s̈)` of the running or braking move, as
+    /// commanded (override included).
+    pub path_rate: (f64, f64),
     /// Time scale σ: the running profile advances σ seconds per second.
     sigma: f64,
     /// σ̇ over the last tick.
@@ -57,6 +102,7 @@ impl Motion {
                 ..JointPoint::default()
             },
             path_position: 0.0,
+            path_rate: (0.0, 0.0),
             sigma,
             sigma_rate: 0.0,
             phase: Phase::Idle,
@@ -78,14 +124,15 @@ impl Motion {
         let Phase::Running { job, plan, tau } = self.phase else {
             return None;
         };
-        let (s, sd, sdd) = plan.profile().eval(tau);
-        let limits = plan.limits();
+        let timing = plan.timing();
+        let (s, sd, sdd) = timing.profile.eval(tau);
+        let limits = timing.limits;
         // Same (s, ṡ, s̈) as the point last commanded, so the stop is continuous.
         let brake = PathBrake::new(
             s,
             sd * self.sigma,
             sdd * self.sigma * self.sigma + sd * self.sigma_rate,
-            limits.acceleration,
+            limits.braking(),
             limits.jerk,
         );
         self.phase = Phase::Braking { plan, brake };
@@ -93,9 +140,10 @@ impl Motion {
     }
 
     /// Advances one tick of `dt` seconds. A standing arm starts the move at `queue[*cursor]`
-    /// (and moves the cursor past it). State changes of jobs go to `report(job, state, code)`.
-    /// A finished stop leaves the arm standing for this tick, so a stop's end is observable
-    /// before the next move starts.
+    /// (and moves the cursor past it); a linear move only if it was planned from exactly
+    /// where the arm stands, else the arm waits for the executor to plan it from there.
+    /// State changes of jobs go to `report(job, state, code)`. A finished stop leaves the
+    /// arm standing for this tick, so a stop's end is observable before the next move starts.
     pub fn advance(
         &mut self,
         dynamics: &Dynamics,
@@ -111,24 +159,39 @@ impl Motion {
                 if self.sequence_paused {
                     return;
                 }
-                let Some(command) = queue.get(*cursor) else {
+                let Some(queued) = queue.get(*cursor) else {
                     return;
                 };
+                let command = &queued.command;
+                let planned = if command.kind == MotionCommandKind::MoveLinear as u8 {
+                    match queued.linear {
+                        Some(plan) if plan.start() == &self.point.q => match plan {
+                            LinearPlan::Move(m) => Ok(Some(Path::Linear(m))),
+                            LinearPlan::Stationary(_) => Ok(None),
+                        },
+                        _ => return,
+                    }
+                } else {
+                    match JointMove::plan(
+                        self.point.q,
+                        command,
+                        &dynamics.limits,
+                        dynamics.override_reserve,
+                    ) {
+                        Ok(Plan::Move(m)) => Ok(Some(Path::Joint(m))),
+                        Ok(Plan::Stationary) => Ok(None),
+                        Err(e) => Err(e.code()),
+                    }
+                };
                 *cursor += 1;
-                let planned = JointMove::plan(
-                    self.point.q,
-                    command,
-                    &dynamics.limits,
-                    dynamics.override_reserve,
-                );
                 match planned {
-                    Err(e) => report(command.job, state::ERROR, e.code()),
-                    Ok(Plan::Stationary) => {
+                    Err(code) => report(command.job, state::ERROR, code),
+                    Ok(None) => {
                         self.point.q = command.joints_rad;
                         report(command.job, state::ACTIVE, 0);
                         report(command.job, state::DONE, 0);
                     }
-                    Ok(Plan::Move(plan)) => {
+                    Ok(Some(plan)) => {
                         report(command.job, state::ACTIVE, 0);
                         self.run(command.job, plan, 0.0, dt, override_target, report);
                     }
@@ -139,8 +202,9 @@ impl Motion {
             }
             Phase::Braking { plan, mut brake } => {
                 brake.advance(dt);
-                self.point = plan.point(brake.s, brake.v, brake.a);
+                self.point = plan.point(brake.s, brake.v, brake.a, &self.point.q);
                 self.path_position = brake.s;
+                self.path_rate = (brake.v, brake.a);
                 self.phase = if brake.is_stopped() {
                     Phase::Idle
                 } else {
@@ -157,6 +221,7 @@ impl Motion {
         self.point.qd = [0.0; AXES];
         self.point.qdd = [0.0; AXES];
         self.path_position = 0.0;
+        self.path_rate = (0.0, 0.0);
     }
 
     /// One tick of a running move under the override: τ advances at the rate σ, and σ
@@ -164,29 +229,33 @@ impl Motion {
     fn run(
         &mut self,
         job: u32,
-        plan: JointMove,
+        plan: Path,
         tau: f64,
         dt: f64,
         override_target: f64,
         report: &mut impl FnMut(u32, u8, u16),
     ) {
-        let max_change = plan.override_rate() * dt;
+        let timing = *plan.timing();
+        let max_change = timing.override_rate * dt;
         let sigma = self.sigma + (override_target - self.sigma).clamp(-max_change, max_change);
         self.sigma_rate = (sigma - self.sigma) / dt;
         // σ is linear within the tick, so the trapezoid is the exact integral.
         let tau = tau + 0.5 * (self.sigma + sigma) * dt;
         self.sigma = sigma;
-        let profile = plan.profile();
+        let profile = timing.profile;
         if tau >= profile.duration() {
-            self.point = plan.point(1.0, 0.0, 0.0);
+            self.point = plan.point(1.0, 0.0, 0.0, &self.point.q);
             self.path_position = 1.0;
+            self.path_rate = (0.0, 0.0);
             self.phase = Phase::Idle;
             report(job, state::DONE, 0);
             return;
         }
         let (s, sd, sdd) = profile.eval(tau);
-        self.point = plan.point(s, sd * sigma, sdd * sigma * sigma + sd * self.sigma_rate);
+        let rate = (sd * sigma, sdd * sigma * sigma + sd * self.sigma_rate);
+        self.point = plan.point(s, rate.0, rate.1, &self.point.q);
         self.path_position = s;
+        self.path_rate = rate;
         self.phase = Phase::Running { job, plan, tau };
     }
 }

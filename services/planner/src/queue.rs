@@ -2,16 +2,37 @@
 
 use shared_types::ipc::{MotionCommand, MotionCommandKind};
 
+use crate::linear_move::LinearPlan;
+
+/// A buffered move: the command and, for a linear move, its plan from where the move is
+/// expected to start (planning a line surveys it, too slow to repeat every tick).
+#[derive(Debug, Clone, Copy)]
+pub struct QueuedMove {
+    /// The command; for a linear move `joints_rad` holds the joints it ends in.
+    pub command: MotionCommand,
+    pub linear: Option<LinearPlan>,
+}
+
+impl QueuedMove {
+    /// A joint move (MoveAxes) of `command`.
+    pub fn joint(command: MotionCommand) -> Self {
+        Self {
+            command,
+            linear: None,
+        }
+    }
+}
+
 /// The primary sequence holds as many moves as it may.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("the primary sequence is full")]
 pub struct QueueFull;
 
-/// Buffered MoveAxes commands in execution order.
+/// Buffered moves in execution order.
 #[derive(Debug)]
 pub struct MoveQueue {
     /// One slot more than `limit`: room for an interrupted move put back at the front.
-    slots: Box<[MotionCommand]>,
+    slots: Box<[QueuedMove]>,
     limit: usize,
     head: usize,
     len: usize,
@@ -22,8 +43,11 @@ impl MoveQueue {
     pub fn with_capacity(capacity: usize) -> Self {
         let limit = capacity.max(1);
         Self {
-            slots: vec![MotionCommand::new(MotionCommandKind::MoveAxes); limit + 1]
-                .into_boxed_slice(),
+            slots: vec![
+                QueuedMove::joint(MotionCommand::new(MotionCommandKind::MoveAxes));
+                limit + 1
+            ]
+            .into_boxed_slice(),
             limit,
             head: 0,
             len: 0,
@@ -41,7 +65,7 @@ impl MoveQueue {
     }
 
     /// Appends `command`, unless the queue is full.
-    pub fn push(&mut self, command: MotionCommand) -> Result<(), QueueFull> {
+    pub fn push(&mut self, command: QueuedMove) -> Result<(), QueueFull> {
         if self.len >= self.limit {
             return Err(QueueFull);
         }
@@ -53,7 +77,7 @@ impl MoveQueue {
 
     /// Puts an interrupted move back at the front, to run again on continue. There is always
     /// room for the one move that was running.
-    pub fn push_front(&mut self, command: MotionCommand) -> Result<(), QueueFull> {
+    pub fn push_front(&mut self, command: QueuedMove) -> Result<(), QueueFull> {
         if self.len == self.slots.len() {
             return Err(QueueFull);
         }
@@ -64,17 +88,22 @@ impl MoveQueue {
     }
 
     /// The `index`-th move from the front, without removing it.
-    pub fn get(&self, index: usize) -> Option<&MotionCommand> {
+    pub fn get(&self, index: usize) -> Option<&QueuedMove> {
         (index < self.len).then(|| &self.slots[(self.head + index) % self.slots.len()])
     }
 
+    /// The front move, to change it in place.
+    pub fn front_mut(&mut self) -> Option<&mut QueuedMove> {
+        (self.len > 0).then(|| &mut self.slots[self.head])
+    }
+
     /// The last move, the one that will end the sequence.
-    pub fn back(&self) -> Option<&MotionCommand> {
+    pub fn back(&self) -> Option<&QueuedMove> {
         self.len.checked_sub(1).and_then(|i| self.get(i))
     }
 
     /// Removes and returns the front move.
-    pub fn pop_front(&mut self) -> Option<MotionCommand> {
+    pub fn pop_front(&mut self) -> Option<QueuedMove> {
         let front = *self.get(0)?;
         self.head = (self.head + 1) % self.slots.len();
         self.len -= 1;
@@ -86,10 +115,10 @@ impl MoveQueue {
 mod tests {
     use super::*;
 
-    fn job(n: u32) -> MotionCommand {
+    fn job(n: u32) -> QueuedMove {
         let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
         c.job = n;
-        c
+        QueuedMove::joint(c)
     }
 
     #[test]
@@ -100,7 +129,8 @@ mod tests {
         assert!(q.push(job(4)).is_err());
         q.push_front(job(1)).unwrap();
         assert_eq!(q.len(), 3);
-        let order: Vec<u32> = core::iter::from_fn(|| q.pop_front().map(|c| c.job)).collect();
+        let order: Vec<u32> =
+            core::iter::from_fn(|| q.pop_front().map(|c| c.command.job)).collect();
         assert_eq!(order, [1, 2, 3]);
     }
 
@@ -113,10 +143,10 @@ mod tests {
                 assert!(q.push(job(base + i)).is_ok());
             }
             assert_eq!(q.push(job(99)), Err(QueueFull));
-            assert_eq!(q.get(1).map(|c| c.job), Some(base + 1));
-            assert_eq!(q.back().map(|c| c.job), Some(base + 2));
+            assert_eq!(q.get(1).map(|c| c.command.job), Some(base + 1));
+            assert_eq!(q.back().map(|c| c.command.job), Some(base + 2));
             for i in 0..3 {
-                assert_eq!(q.pop_front().map(|c| c.job), Some(base + i));
+                assert_eq!(q.pop_front().map(|c| c.command.job), Some(base + i));
             }
             assert!(q.is_empty() && q.pop_front().is_none() && q.back().is_none());
         }

@@ -1,11 +1,13 @@
 //! The planner's per-tick work allocates nothing in the steady state: a counting global
-//! allocator watches `Executor::step` while moves, override changes, an interrupt and a
-//! continue run through it.
+//! allocator watches `Executor::step` while joint and linear moves, override changes, an
+//! interrupt, a continue and a stop run through it.
 
 use planner::executor::Executor;
+use planner::kinematics::Kinematics;
 use shared_types::alloc_count::{CountingAllocator, count};
 use shared_types::config::Config;
-use shared_types::ipc::{DriveState, MotionCommand, MotionCommandKind, ServoFeedback};
+use shared_types::ipc::{DriveState, JOB_EVENTS, MotionCommand, MotionCommandKind, ServoFeedback};
+use shared_types::srci::message::{code, state};
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
@@ -28,28 +30,62 @@ fn steady_state_ticks_do_not_allocate() {
     let mut targets = [home, home];
     targets[0][0] += 0.6;
     targets[1][1] -= 0.4;
+    // A line of the TCP 12 cm out of the flange, down and sideways, turning it.
+    let tool = [0.0, 0.0, 0.12, 0.0, 0.0, 0.0];
+    let kinematics = Kinematics::new(&config.robot.kinematics);
+    let mut line_target = kinematics.flange_pose(&home);
+    line_target[0] += 0.1;
+    line_target[2] -= 0.1;
+    line_target[5] += 0.3;
+    let tool_of_flange = shared_types::pose::isometry(tool);
+    let line_target =
+        shared_types::pose::pose(&(shared_types::pose::isometry(line_target) * tool_of_flange));
     let mut allocations = 0;
     let mut ticks = 0;
-    for round in 0..6u32 {
+    let mut events = Vec::with_capacity(1000);
+    let mut seen = 0;
+    for round in 0..8u32 {
         let mut commands = Vec::with_capacity(2);
-        let mut mv = command(MotionCommandKind::MoveAxes, 10 + round);
-        mv.joints_rad = targets[round as usize % 2];
+        // Rounds 0..6 alternate joint moves; 6 and 7 are linear moves there and back.
+        let mv = if round < 6 {
+            let mut mv = command(MotionCommandKind::MoveAxes, 10 + round);
+            mv.joints_rad = targets[round as usize % 2];
+            mv
+        } else {
+            let mut mv = command(MotionCommandKind::MoveLinear, 10 + round);
+            mv.tool = tool;
+            mv.pose = if round == 6 {
+                line_target
+            } else {
+                shared_types::pose::pose(&(kinematics.flange(&targets[1]) * tool_of_flange))
+            };
+            mv
+        };
         commands.push(mv);
         if round == 2 {
             let mut o = command(MotionCommandKind::Override, 100);
             o.override_fraction = 0.5;
             commands.push(o);
         }
-        for tick in 0..3000u32 {
+        // The linear moves are slower (their joint bounds are conservative).
+        let round_ticks = if round < 6 { 3000 } else { 6000 };
+        for tick in 0..round_ticks {
             let batch: &[MotionCommand] = match tick {
                 0 => &commands,
-                400 if round == 4 => &[command(MotionCommandKind::Interrupt, 200)],
-                900 if round == 4 => &[command(MotionCommandKind::Continue, 201)],
+                400 if round == 4 || round == 6 => &[command(MotionCommandKind::Interrupt, 200)],
+                900 if round == 4 || round == 6 => &[command(MotionCommandKind::Continue, 201)],
+                200 if round == 7 => &[command(MotionCommandKind::Stop, 202)],
                 _ => &[],
             };
             let (window, a) = count(|| executor.step(&feedback, batch));
             allocations += a;
             ticks += 1;
+            let status = executor.status();
+            for n in seen + 1..=status.event_head {
+                let e = status.events[(n % JOB_EVENTS as u64) as usize];
+                events.push((e.job, e.state, e.code));
+            }
+            seen = status.event_head;
             // The servo follows the first point of each window exactly.
             if let Some(w) = window {
                 feedback.q = w.points[0].q;
@@ -59,6 +95,10 @@ fn steady_state_ticks_do_not_allocate() {
         }
     }
     assert!(ticks > 10_000);
+    // The linear moves ran: the first to its end, the second into the stop.
+    assert!(events.contains(&(16, state::DONE, 0)), "{events:?}");
+    assert!(events.contains(&(17, state::ACTIVE, 0)), "{events:?}");
+    assert!(events.contains(&(17, state::ABORTED, code::ABORTED_BY_GROUP_STOP)));
     assert_eq!(allocations, 0, "allocations in {ticks} planner ticks");
     let (_, probe) = count(|| std::hint::black_box(vec![0u8; 16]));
     assert_eq!(probe, 1, "the counter sees allocations");

@@ -5,12 +5,14 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+use planner::kinematics::Kinematics;
 use shared_types::bus::{Bus, publish, receive_latest};
 use shared_types::config::Config;
 use shared_types::ipc::{
     AXES, DriveState, JOB_EVENTS, MotionCommand, MotionCommandKind, MotionStatus, ServoFeedback,
     ServoSetpoint, topics,
 };
+use shared_types::pose;
 use shared_types::srci::message::state;
 
 fn feedback(tick: u64, q: [f64; AXES]) -> ServoFeedback {
@@ -19,10 +21,21 @@ fn feedback(tick: u64, q: [f64; AXES]) -> ServoFeedback {
     f
 }
 
-#[test]
-fn the_planner_process_drives_a_move_to_its_target_and_shuts_down_promptly() {
-    let mut cfg = Config::load(None).expect("embedded configuration");
-    cfg.main.instance = format!("plan{}", std::process::id());
+/// What a planner process did with one move command, driven in lockstep until the move was
+/// done.
+struct Outcome {
+    /// Where the servo ended.
+    q: [f64; AXES],
+    /// Every position the servo applied.
+    trace: Vec<[f64; AXES]>,
+    events: Vec<(u32, u8)>,
+    /// Time from the shutdown request to the end of the planner thread.
+    shutdown: Duration,
+}
+
+/// Starts the planner of `cfg` on a thread, sends `command` (seq 1, job 1) and drives a
+/// simulated servo from `start` until job 1 is final.
+fn drive(cfg: &Config, start: [f64; AXES], command: MotionCommand) -> Outcome {
     let shutdown = Arc::new(AtomicBool::new(false));
     let planner = {
         let (cfg, shutdown) = (cfg.clone(), Arc::clone(&shutdown));
@@ -44,18 +57,16 @@ fn the_planner_process_drives_a_move_to_its_target_and_shuts_down_promptly() {
         .subscriber::<MotionStatus>(topics::MOTION_STATUS)
         .unwrap();
 
-    let mut q: [f64; AXES] = cfg.robot.home_deg.map(f64::to_radians);
-    let mut target = q;
-    target[0] += 0.3;
-    target[4] -= 0.2;
-    let mut command = MotionCommand::new(MotionCommandKind::MoveAxes);
-    (command.seq, command.issuer, command.job, command.joints_rad) = (1, 9, 1, target);
-
+    let mut q = start;
+    let mut trace = Vec::new();
     let mut events = Vec::new();
     let mut seen = 0;
     let deadline = Instant::now() + Duration::from_secs(20);
     let mut tick = 1;
-    while !events.contains(&(1, state::DONE)) {
+    while !events
+        .iter()
+        .any(|&(job, s)| job == command.job && state::is_final(s))
+    {
         assert!(
             Instant::now() < deadline,
             "the move did not finish: {events:?}"
@@ -82,20 +93,16 @@ fn the_planner_process_drives_a_move_to_its_target_and_shuts_down_promptly() {
             events.push((e.job, e.state));
         }
         seen = status.event_head;
-        if status.acked_seq < 1 {
+        if status.acked_seq < command.seq {
             publish(&command_publisher, command).unwrap();
         }
         if let Some(window) = receive_latest(&setpoints).unwrap() {
             assert_eq!(window.first_tick, tick + 1);
             q = window.points[0].q;
+            trace.push(q);
         }
         tick += 1;
     }
-    assert_eq!(q, target);
-    assert_eq!(
-        events,
-        vec![(1, state::BUFFERED), (1, state::ACTIVE), (1, state::DONE)]
-    );
 
     let asked = Instant::now();
     shutdown.store(true, Ordering::Relaxed);
@@ -103,5 +110,66 @@ fn the_planner_process_drives_a_move_to_its_target_and_shuts_down_promptly() {
         .join()
         .expect("planner thread")
         .expect("planner run");
-    assert!(asked.elapsed() < Duration::from_millis(200));
+    Outcome {
+        q,
+        trace,
+        events,
+        shutdown: asked.elapsed(),
+    }
+}
+
+/// The embedded configuration with an instance name of its own for test `name`.
+fn config(name: &str) -> Config {
+    let mut cfg = Config::load(None).expect("embedded configuration");
+    cfg.main.instance = format!("{name}{}", std::process::id());
+    cfg
+}
+
+#[test]
+fn the_planner_process_drives_a_move_to_its_target_and_shuts_down_promptly() {
+    let cfg = config("plan");
+    let home: [f64; AXES] = cfg.robot.home_deg.map(f64::to_radians);
+    let mut target = home;
+    target[0] += 0.3;
+    target[4] -= 0.2;
+    let mut command = MotionCommand::new(MotionCommandKind::MoveAxes);
+    (command.seq, command.issuer, command.job, command.joints_rad) = (1, 9, 1, target);
+    let outcome = drive(&cfg, home, command);
+    assert_eq!(outcome.q, target);
+    assert_eq!(
+        outcome.events,
+        vec![(1, state::BUFFERED), (1, state::ACTIVE), (1, state::DONE)]
+    );
+    assert!(outcome.shutdown < Duration::from_millis(200));
+}
+
+#[test]
+fn the_planner_process_drives_the_tcp_on_a_straight_line() {
+    let cfg = config("planlin");
+    let home: [f64; AXES] = cfg.robot.home_deg.map(f64::to_radians);
+    let kinematics = Kinematics::new(&cfg.robot.kinematics);
+    let tool = [0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
+    let tcp = |q: &[f64; AXES]| kinematics.flange(q) * pose::isometry(tool);
+    let start = tcp(&home).translation.vector;
+    let mut target = pose::pose(&tcp(&home));
+    target[0] += 0.1;
+    target[1] -= 0.1;
+    target[2] -= 0.05;
+    let mut command = MotionCommand::new(MotionCommandKind::MoveLinear);
+    (command.seq, command.issuer, command.job) = (1, 9, 1);
+    (command.pose, command.tool) = (target, tool);
+    let outcome = drive(&cfg, home, command);
+    assert_eq!(
+        outcome.events,
+        vec![(1, state::BUFFERED), (1, state::ACTIVE), (1, state::DONE)]
+    );
+    let end = pose::isometry(target).translation.vector;
+    assert!((tcp(&outcome.q).translation.vector - end).norm() < 1e-9);
+    assert!(outcome.trace.len() > 100);
+    let direction = (end - start).normalize();
+    for q in &outcome.trace {
+        let d = tcp(q).translation.vector - start;
+        let off = (d - direction * d.dot(&direction)).norm();
+        assert!(off < 1e-5, "{off} m off the line");
+    }
 }

@@ -4,10 +4,10 @@ use super::*;
 use shared_types::config::JointLimitsRad;
 use shared_types::ipc::{JOB_EVENTS, JobEvent};
 
+use crate::test_support::{assert_jerk_within_limits, assert_within_limits};
+
 const DT: f64 = 1e-3;
 const ISSUER: u64 = 77;
-/// Relative slack on the limits for rounding.
-const SLACK: f64 = 1e-6;
 
 fn config() -> Config {
     Config::load(None).expect("embedded configuration")
@@ -72,6 +72,33 @@ impl Rig {
         let mut c = self.command(MotionCommandKind::MoveAxes, job);
         c.joints_rad = target;
         c
+    }
+
+    /// A MoveLinear of the TCP (with [`tool`]) from where the arm stands now, shifted by
+    /// `shift` (m) and turned by `turn` (rotation vector, rad).
+    fn line_by(&mut self, job: u32, shift: [f64; 3], turn: [f64; 3]) -> MotionCommand {
+        let mut c = self.command(MotionCommandKind::MoveLinear, job);
+        c.tool = tool();
+        c.pose = shifted(&tcp_of(&self.feedback.q), shift, turn);
+        c
+    }
+
+    /// Every applied point since `from` puts the TCP (with [`tool`]) on the segment from
+    /// `start` to `target`, within 0.01 mm.
+    fn check_on_tcp_line(&self, from: usize, start: [f64; 6], target: [f64; 6]) {
+        let (a, b) = (pose::isometry(start), pose::isometry(target));
+        let (pa, pb) = (a.translation.vector, b.translation.vector);
+        let length = (pb - pa).norm();
+        for p in &self.trace[from..] {
+            let d = tcp_of(&p.q).translation.vector - pa;
+            let along = d.dot(&(pb - pa)) / length;
+            let off = (d - (pb - pa) * (along / length)).norm();
+            assert!(off < 1e-5, "{off} m off the line");
+            assert!(
+                along > -1e-9 && along < length + 1e-9,
+                "off the segment: {along}"
+            );
+        }
     }
 
     /// One planner step for the current feedback, then the servo executes the next tick.
@@ -142,33 +169,10 @@ impl Rig {
         self.final_state(job).is_some()
     }
 
-    /// Joint velocity and acceleration limits on the reported values and on the finite
-    /// differences of the applied positions.
+    /// Joint position, velocity and acceleration limits on the reported values and on the
+    /// finite differences of the applied positions.
     fn check_limits(&self) {
-        let l = &self.limits;
-        for p in &self.trace {
-            for i in 0..AXES {
-                assert!(p.qd[i].abs() <= l.velocity[i] * (1.0 + SLACK), "qd {p:?}");
-                assert!(
-                    p.qdd[i].abs() <= l.acceleration[i] * (1.0 + SLACK),
-                    "qdd {p:?}"
-                );
-            }
-        }
-        for w in self.trace.windows(3) {
-            for i in 0..AXES {
-                let v = (w[2].q[i] - w[1].q[i]) / DT;
-                let a = (w[2].q[i] - 2.0 * w[1].q[i] + w[0].q[i]) / (DT * DT);
-                assert!(
-                    v.abs() <= l.velocity[i] * (1.0 + SLACK) + 1e-9,
-                    "v {v} joint {i}"
-                );
-                assert!(
-                    a.abs() <= l.acceleration[i] * (1.0 + SLACK) + 1e-6,
-                    "a {a} joint {i}"
-                );
-            }
-        }
+        assert_within_limits(&self.trace, &self.limits, DT);
     }
 
     /// Every applied point since `from` lies on the segment from `start` to `target`.
@@ -194,6 +198,31 @@ impl Rig {
 fn home() -> [f64; AXES] {
     config().robot.home_deg.map(f64::to_radians)
 }
+
+/// The tool of the linear-move tests: 12 cm out along the flange z, tilted.
+fn tool() -> [f64; 6] {
+    [0.01, 0.0, 0.12, 0.2, -0.1, 0.0]
+}
+
+/// The pose (base frame) of the TCP of [`tool`] at the joints `q`.
+fn tcp_of(q: &[f64; AXES]) -> nalgebra::Isometry3<f64> {
+    Kinematics::new(&config().robot.kinematics).flange(q) * pose::isometry(tool())
+}
+
+/// `pose` shifted by `shift` (m) and turned by `turn` (rotation vector in the base frame, rad).
+fn shifted(pose: &nalgebra::Isometry3<f64>, shift: [f64; 3], turn: [f64; 3]) -> [f64; 6] {
+    use nalgebra::{Translation3, UnitQuaternion, Vector3};
+    let rotation = UnitQuaternion::from_scaled_axis(Vector3::from(turn)) * pose.rotation;
+    let position = pose.translation.vector + Vector3::from(shift);
+    pose::pose(&nalgebra::Isometry3::from_parts(
+        Translation3::from(position),
+        rotation,
+    ))
+}
+
+/// A shift and turn of the TCP from home that the arm reaches on a line.
+const SHIFT: [f64; 3] = [0.12, -0.15, -0.1];
+const TURN: [f64; 3] = [0.2, 0.3, -0.4];
 
 fn target_a() -> [f64; AXES] {
     let h = home();
@@ -223,13 +252,7 @@ fn a_move_reaches_its_target_exactly_within_the_limits() {
     assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
     rig.check_limits();
     rig.check_on_line(0, start, target);
-    // Jerk of the commanded acceleration stays within the limit too.
-    for w in rig.trace.windows(2) {
-        for i in 0..AXES {
-            let jerk = (w[1].qdd[i] - w[0].qdd[i]).abs() / DT;
-            assert!(jerk <= rig.limits.jerk[i] * (1.0 + SLACK), "jerk {jerk}");
-        }
-    }
+    assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
     let s = rig.executor.status();
     assert_eq!((s.active_job, s.queued_jobs, s.moving), (0, 0, false));
     assert_eq!(s.acked_seq, c.seq);
@@ -829,6 +852,10 @@ mod random {
         Override(f64),
         Stop,
         Abort([f64; AXES]),
+        /// An aborting linear move of the TCP by a shift (m) from home's.
+        AbortLinear([f64; 3]),
+        Interrupt,
+        Continue,
     }
 
     fn action() -> impl Strategy<Value = Action> {
@@ -836,14 +863,17 @@ mod random {
             3 => (0.0f64..=1.0).prop_map(Action::Override),
             1 => Just(Action::Stop),
             1 => prop::array::uniform6(-1.0f64..1.0).prop_map(Action::Abort),
+            2 => prop::array::uniform3(-0.15f64..0.15).prop_map(Action::AbortLinear),
+            1 => Just(Action::Interrupt),
+            1 => Just(Action::Continue),
         ]
     }
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(24))]
 
-        /// Whatever happens when, the joints never leave their velocity and acceleration
-        /// limits, and every job ends with a final state.
+        /// Whatever happens when, to joint and linear moves, the joints never leave their
+        /// velocity and acceleration limits, and every job ends with a final state.
         #[test]
         fn any_sequence_of_overrides_stops_and_aborts_keeps_the_limits(
             offset in prop::array::uniform6(-1.0f64..1.0),
@@ -872,14 +902,333 @@ mod random {
                         c.aborting = true;
                         c
                     }
+                    Action::AbortLinear(shift) => {
+                        let mut c = rig.line_by(job, [0.0; 3], [0.0; 3]);
+                        c.pose = shifted(&tcp_of(&base), shift, [0.0; 3]);
+                        c.aborting = true;
+                        c
+                    }
+                    Action::Interrupt => rig.command(MotionCommandKind::Interrupt, job),
+                    Action::Continue => rig.command(MotionCommandKind::Continue, job),
                 };
                 rig.step(&[c]);
             }
             let mut resume = rig.command(MotionCommandKind::Override, job + 1);
             resume.override_fraction = 1.0;
-            rig.step(&[resume]);
-            rig.run_until(20_000, |r| (1..=job + 1).all(|j| r.is_final(j)));
+            let go_on = rig.command(MotionCommandKind::Continue, job + 2);
+            rig.step(&[resume, go_on]);
+            rig.run_until(40_000, |r| (1..=job + 2).all(|j| r.is_final(j)));
             rig.check_limits();
         }
     }
+}
+
+mod linear {
+    use super::*;
+
+    /// Rig with a linear move by [`SHIFT`] and [`TURN`] from home sent as job 1; returns
+    /// the start and target TCP poses.
+    fn started(rig: &mut Rig) -> ([f64; 6], [f64; 6]) {
+        let c = rig.line_by(1, SHIFT, TURN);
+        let start = pose::pose(&tcp_of(&rig.feedback.q));
+        rig.step(&[c]);
+        (start, c.pose)
+    }
+
+    /// Runs job 1 to its end and checks that it was done on the line within the limits.
+    fn finish(rig: &mut Rig, start: [f64; 6], target: [f64; 6]) {
+        rig.run_until(20_000, |r| r.is_final(1));
+        assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
+        assert_tcp_at(&rig.feedback.q, target);
+        rig.check_on_tcp_line(0, start, target);
+        rig.check_limits();
+    }
+
+    fn assert_tcp_at(q: &[f64; AXES], pose: [f64; 6]) {
+        let (reached, target) = (tcp_of(q), pose::isometry(pose));
+        assert!((reached.translation.vector - target.translation.vector).norm() < 1e-9);
+        assert!(reached.rotation.angle_to(&target.rotation) < 1e-9);
+    }
+
+    #[test]
+    fn a_linear_move_keeps_the_tcp_on_the_line_and_reaches_the_target() {
+        let mut rig = Rig::new();
+        let (start, target) = started(&mut rig);
+        let mut progress = Vec::new();
+        rig.run_until(20_000, |r| r.is_final(1));
+        for _ in 0..3 {
+            progress.push(rig.executor.status().active_progress);
+            rig.step(&[]);
+        }
+        assert_eq!(
+            rig.states_of(1),
+            vec![(state::BUFFERED, 0), (state::ACTIVE, 0), (state::DONE, 0)]
+        );
+        assert_tcp_at(&rig.feedback.q, target);
+        assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+        rig.check_on_tcp_line(0, start, target);
+        rig.check_limits();
+        assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+        let s = rig.executor.status();
+        assert_eq!((s.active_job, s.moving), (0, false));
+        assert_eq!(
+            s.flange_pose,
+            Kinematics::new(&config().robot.kinematics).flange_pose(&rig.feedback.q)
+        );
+    }
+
+    #[test]
+    fn progress_is_reported_along_the_line() {
+        let mut rig = Rig::new();
+        started(&mut rig);
+        let mut seen = Vec::new();
+        while !rig.is_final(1) {
+            let s = rig.executor.status();
+            if s.active_job == 1 {
+                seen.push(s.active_progress);
+            }
+            rig.step(&[]);
+        }
+        assert!(seen.len() > 100);
+        assert!(seen.windows(2).all(|w| w[1] >= w[0]));
+        assert!(seen[0] < 1.0 && *seen.last().unwrap() > 99.0);
+    }
+
+    #[test]
+    fn stop_brakes_on_the_line_within_the_limits() {
+        let mut rig = Rig::new();
+        let (start, target) = started(&mut rig);
+        let queued = rig.move_to(2, home());
+        rig.step(&[queued]);
+        rig.run_until(20_000, |r| r.executor.status().active_progress > 50.0);
+        let stop = rig.command(MotionCommandKind::Stop, 3);
+        rig.step(&[stop]);
+        let abort = (state::ABORTED, code::ABORTED_BY_GROUP_STOP);
+        assert_eq!(rig.final_state(1), Some(abort));
+        assert_eq!(rig.final_state(2), Some(abort));
+        assert!(rig.executor.status().decelerating);
+        rig.run_until(20_000, |r| r.is_final(3));
+        assert_eq!(rig.final_state(3), Some((state::DONE, 0)));
+        let stood = rig.feedback.q;
+        rig.step(&[]);
+        assert_eq!(rig.feedback.q, stood);
+        rig.check_on_tcp_line(0, start, target);
+        rig.check_limits();
+        assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+        let progress =
+            (tcp_of(&stood).translation.vector - pose::isometry(start).translation.vector).norm()
+                / (pose::isometry(target).translation.vector
+                    - pose::isometry(start).translation.vector)
+                    .norm();
+        assert!(progress > 0.5 && progress < 1.0, "{progress}");
+    }
+
+    #[test]
+    fn interrupt_and_continue_stay_on_the_line() {
+        let mut rig = Rig::new();
+        let (start, target) = started(&mut rig);
+        rig.run_until(20_000, |r| r.executor.status().active_progress > 40.0);
+        let interrupt = rig.command(MotionCommandKind::Interrupt, 2);
+        rig.step(&[interrupt]);
+        assert_eq!(
+            rig.states_of(1).last(),
+            Some(&(state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT))
+        );
+        rig.run_until(20_000, |r| r.is_final(2));
+        let stood = rig.feedback.q;
+        for _ in 0..100 {
+            rig.step(&[]);
+        }
+        assert_eq!(rig.feedback.q, stood);
+        let resume = rig.command(MotionCommandKind::Continue, 3);
+        rig.step(&[resume]);
+        finish(&mut rig, start, target);
+    }
+
+    #[test]
+    fn override_changes_retime_the_line_without_leaving_it() {
+        let mut rig = Rig::new();
+        let start = pose::pose(&tcp_of(&rig.feedback.q));
+        // Slow enough for the override ramp to halt it on the way.
+        let mut c = rig.line_by(1, SHIFT, TURN);
+        c.velocity_scale = 0.2;
+        let target = c.pose;
+        rig.step(&[c]);
+        rig.run_until(20_000, |r| r.executor.status().active_progress > 20.0);
+        rig.set_override(2, 0.2);
+        rig.run_until(20_000, |r| r.executor.status().active_progress > 50.0);
+        rig.set_override(3, 0.0);
+        rig.run_until(20_000, |r| !r.executor.status().moving);
+        assert_eq!(rig.executor.status().active_job, 1);
+        rig.set_override(4, 1.0);
+        finish(&mut rig, start, target);
+    }
+
+    #[test]
+    fn an_aborting_linear_move_runs_from_where_the_arm_stopped() {
+        let mut rig = Rig::new();
+        let a = rig.move_to(1, target_a());
+        rig.step(&[a]);
+        rig.run_until(10_000, |r| r.executor.status().active_progress > 20.0);
+        let mut c = rig.line_by(2, [0.0; 3], [0.0; 3]);
+        c.pose = shifted(&tcp_of(&home()), SHIFT, TURN);
+        c.aborting = true;
+        rig.step(&[c]);
+        assert_eq!(
+            rig.final_state(1),
+            Some((state::ABORTED, code::ABORTED_BY_MOTION_COMMAND))
+        );
+        rig.run_until(20_000, |r| r.states_of(2).len() > 1);
+        let from = rig.trace.len() - 1;
+        let stood = rig.trace[from - 1].q;
+        assert_eq!(rig.trace[from - 1].qd, [0.0; AXES]);
+        rig.run_until(20_000, |r| r.is_final(2));
+        assert_eq!(rig.final_state(2), Some((state::DONE, 0)));
+        assert_tcp_at(&rig.feedback.q, c.pose);
+        rig.check_on_tcp_line(from, pose::pose(&tcp_of(&stood)), c.pose);
+        rig.check_limits();
+    }
+
+    #[test]
+    fn queued_moves_chain_joint_and_linear_moves() {
+        let mut rig = Rig::new();
+        let mut first = home();
+        first[0] += 0.3;
+        let a = rig.move_to(1, first);
+        let mut b = rig.line_by(2, [0.0; 3], [0.0; 3]);
+        b.pose = shifted(&tcp_of(&first), SHIFT, [0.0; 3]);
+        let mut c = rig.line_by(3, [0.0; 3], [0.0; 3]);
+        c.pose = shifted(&tcp_of(&first), [0.0; 3], TURN);
+        let d = rig.move_to(4, home());
+        rig.step(&[a, b, c, d]);
+        assert_eq!(rig.executor.status().queued_jobs, 3);
+        rig.run_until(20_000, |r| r.is_final(1));
+        let from = rig.trace.len();
+        rig.run_until(20_000, |r| r.is_final(2));
+        assert_tcp_at(&rig.feedback.q, b.pose);
+        rig.check_on_tcp_line(from, pose::pose(&tcp_of(&first)), b.pose);
+        rig.run_until(20_000, |r| r.is_final(4));
+        for job in 1..=4 {
+            assert_eq!(rig.final_state(job), Some((state::DONE, 0)), "job {job}");
+        }
+        assert_eq!(rig.feedback.q, home());
+        rig.check_limits();
+    }
+
+    #[test]
+    fn errors_are_reported_before_the_arm_moves() {
+        let mut rig = Rig::new();
+        let far = rig.line_by(1, [2.0, 0.0, 0.0], [0.0; 3]);
+        let mut joint_interpolated = rig.line_by(2, SHIFT, [0.0; 3]);
+        joint_interpolated.ori_mode = 2;
+        let mut other_config = rig.line_by(3, SHIFT, [0.0; 3]);
+        // Shoulder FRONT: home is BACK.
+        other_config.config_modes = [4, 1, 1];
+        let mut slow_decel = rig.line_by(4, SHIFT, [0.0; 3]);
+        slow_decel.deceleration_scale = 1.5;
+        rig.step(&[far, joint_interpolated, other_config, slow_decel]);
+        assert_eq!(
+            rig.states_of(1),
+            vec![(state::ERROR, code::TARGET_UNREACHABLE)]
+        );
+        assert_eq!(rig.states_of(2), vec![(state::ERROR, 0x8E08)]);
+        assert_eq!(
+            rig.states_of(3),
+            vec![(state::ERROR, code::TARGET_UNREACHABLE)]
+        );
+        assert_eq!(
+            rig.states_of(4),
+            vec![(state::ERROR, code::INVALID_DECELERATION_RATE)]
+        );
+        assert_eq!(rig.executor.status().queued_jobs, 0);
+        for _ in 0..10 {
+            rig.step(&[]);
+        }
+        assert!(rig.trace.iter().all(|p| p.q == home()));
+    }
+
+    #[test]
+    fn a_late_planner_follows_the_same_line() {
+        let mut smooth = Rig::new();
+        let mut late = Rig::new();
+        for rig in [&mut smooth, &mut late] {
+            started(rig);
+        }
+        for n in 0..4000 {
+            if n % 5 == 2 {
+                late.step_without_planner();
+                late.step_without_planner();
+                late.step_without_planner();
+                smooth.step(&[]);
+                smooth.step(&[]);
+                smooth.step(&[]);
+            } else {
+                late.step(&[]);
+                smooth.step(&[]);
+            }
+        }
+        assert_eq!(smooth.trace, late.trace);
+        assert_eq!(late.final_state(1), Some((state::DONE, 0)));
+    }
+
+    #[test]
+    fn a_direct_move_takes_its_target_for_the_tcp_of_the_tool() {
+        let mut rig = Rig::new();
+        let mut c = rig.command(MotionCommandKind::MoveDirect, 1);
+        c.tool = tool();
+        c.pose = shifted(&tcp_of(&home()), SHIFT, TURN);
+        rig.step(&[c]);
+        rig.run_until(20_000, |r| r.is_final(1));
+        assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
+        let (reached, target) = (tcp_of(&rig.feedback.q), pose::isometry(c.pose));
+        assert!((reached.translation.vector - target.translation.vector).norm() < 1e-6);
+        assert!(reached.rotation.angle_to(&target.rotation) < 1e-6);
+    }
+}
+
+#[test]
+fn a_lower_deceleration_rate_slows_only_the_end_of_the_move() {
+    let mut target = home();
+    target[0] += 4.0;
+    let run = |deceleration: f64| {
+        let mut rig = Rig::new();
+        let mut c = rig.move_to(1, target);
+        c.acceleration_scale = 0.8;
+        c.deceleration_scale = deceleration;
+        rig.step(&[c]);
+        rig.run_until(20_000, |r| r.is_final(1));
+        assert_eq!(rig.feedback.q, target);
+        rig.check_limits();
+        rig.trace
+    };
+    let (equal, low) = (run(0.8), run(0.4));
+    // The same acceleration ramp (0.5 s) and the start of the cruise, bit for bit.
+    assert_eq!(equal[..600], low[..600]);
+    // Braking ramp 0.85 s instead of 0.52 s, half of the difference won back in the cruise.
+    assert!(
+        low.len() > equal.len() + 150,
+        "{} vs {}",
+        low.len(),
+        equal.len()
+    );
+    // Braking uses at most 40 % of the acceleration limit (less the override reserve).
+    let limit = config().robot.limits_rad().acceleration[0];
+    let braking = |trace: &[JointPoint]| {
+        trace[trace.len() / 2..]
+            .iter()
+            .map(|p| -p.qdd[0])
+            .fold(0.0, f64::max)
+            / limit
+    };
+    let reserve = 1.0 - config().main.planner.override_reserve;
+    assert!(
+        (braking(&low) - 0.4 * reserve).abs() < 1e-6,
+        "{}",
+        braking(&low)
+    );
+    assert!(
+        (braking(&equal) - 0.8 * reserve).abs() < 1e-6,
+        "{}",
+        braking(&equal)
+    );
 }

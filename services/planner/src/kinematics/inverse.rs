@@ -67,6 +67,18 @@ impl IkSolutions {
     }
 }
 
+/// What every branch needs of a flange pose: its axes and the wrist point (steps 1 and 2).
+struct Wrist5 {
+    x6: Vector3<f64>,
+    y6: Vector3<f64>,
+    z6: Vector3<f64>,
+    p5: Vector3<f64>,
+    /// `√(r² − d4²)`: the wrist point's distance from the J1 axis within the arm plane.
+    radial: f64,
+    /// Azimuth `φ` of the wrist point.
+    azimuth: f64,
+}
+
 impl ArmGeometry {
     /// Every branch reaching the flange pose `flange` (base frame). `q6_reference` (rad) is
     /// J6's angle where the wrist is singular, usually the current one.
@@ -75,6 +87,50 @@ impl ArmGeometry {
         flange: &Isometry3<f64>,
         q6_reference: f64,
     ) -> Result<IkSolutions, IkError> {
+        let wrist5 = self.wrist_point(flange)?;
+        let mut solutions = IkSolutions::default();
+        for shoulder in [Shoulder::Front, Shoulder::Back] {
+            for wrist in [Wrist::NonFlip, Wrist::Flip] {
+                let Some((arms, free)) = self.branch_pair(&wrist5, shoulder, wrist, q6_reference)
+                else {
+                    continue;
+                };
+                for (elbow, q) in [Elbow::Up, Elbow::Down].into_iter().zip(arms) {
+                    let k = usize::from(
+                        ArmConfig {
+                            shoulder,
+                            elbow,
+                            wrist,
+                        }
+                        .bits(),
+                    );
+                    solutions.branches[k] = Some(q);
+                    solutions.wrist_free[k] = free;
+                }
+            }
+        }
+        if solutions.branches.iter().all(Option::is_none) {
+            return Err(IkError::Unreachable);
+        }
+        Ok(solutions)
+    }
+
+    /// The one branch `config` of the flange pose, if it reaches it: what
+    /// [`inverse`](Self::inverse) gives for `config`, at an eighth of the work (for following
+    /// a path in one configuration every interpolation tick).
+    pub fn inverse_in(
+        &self,
+        flange: &Isometry3<f64>,
+        config: ArmConfig,
+        q6_reference: f64,
+    ) -> Option<[f64; AXES]> {
+        let wrist5 = self.wrist_point(flange).ok()?;
+        let (arms, _) = self.branch_pair(&wrist5, config.shoulder, config.wrist, q6_reference)?;
+        Some(arms[usize::from(config.elbow.bit())])
+    }
+
+    /// Steps 1 and 2 common to every branch.
+    fn wrist_point(&self, flange: &Isometry3<f64>) -> Result<Wrist5, IkError> {
         let rotation = flange.rotation.to_rotation_matrix();
         let m = rotation.matrix();
         let p6 = flange.translation.vector;
@@ -91,75 +147,69 @@ impl ArmGeometry {
         if radial_sq < -2.0 * self.d4.abs() * REACH_TOLERANCE_M {
             return Err(IkError::Unreachable);
         }
-        let radial = radial_sq.max(0.0).sqrt();
-        let theta6_reference = q6_reference + self.offsets[5];
-        let azimuth = p5.y.atan2(p5.x);
-        let mut solutions = IkSolutions::default();
-        for shoulder in [Shoulder::Front, Shoulder::Back] {
-            // FRONT puts p5 on the side of sign(a2)·u, i.e. p5·u has the sign of a2 (step 1).
-            let along = if shoulder == Shoulder::Front {
-                self.a2.signum() * radial
-            } else {
-                -self.a2.signum() * radial
-            };
-            let theta1 = azimuth + self.d4.atan2(along);
-            let (s1, c1) = theta1.sin_cos();
-            let u = Vector3::new(c1, s1, 0.0);
-            let n = Vector3::new(s1, -c1, 0.0);
-            let c5 = z6.dot(&n);
-            let s5_magnitude = z6.dot(&u).hypot(z6.z);
-            let (x6n, y6n) = (x6.dot(&n), y6.dot(&n));
-            for wrist in [Wrist::NonFlip, Wrist::Flip] {
-                let s5 = if wrist.bit() {
-                    -s5_magnitude
-                } else {
-                    s5_magnitude
-                };
-                let free = s5_magnitude < WRIST_FREE_SIN;
-                let theta6 = if free {
-                    self.free_theta6(&p5, &x6, &y6, theta6_reference)
-                } else {
-                    (-y6n * s5.signum()).atan2(x6n * s5.signum())
-                };
-                let (s6, c6) = theta6.sin_cos();
-                let x5 = c6 * x6 - s6 * y6;
-                let z4 = -(s6 * x6 + c6 * y6);
-                let x4 = c5 * x5 - s5 * z6;
-                let theta234 = x4.z.atan2(x4.dot(&u));
-                let o4 = p5 - self.d5 * z4;
-                let (x, y) = (o4.dot(&u), o4.z - self.d1);
-                let Some(arms) = self.planar_arm(x, y) else {
-                    continue;
-                };
-                let theta5 = s5.atan2(c5);
-                for (elbow, (theta2, theta3)) in [Elbow::Up, Elbow::Down].into_iter().zip(arms) {
-                    let thetas = [
-                        theta1,
-                        theta2,
-                        theta3,
-                        theta234 - theta2 - theta3,
-                        theta5,
-                        theta6,
-                    ];
-                    let k = usize::from(
-                        ArmConfig {
-                            shoulder,
-                            elbow,
-                            wrist,
-                        }
-                        .bits(),
-                    );
-                    solutions.branches[k] = Some(core::array::from_fn(|i| {
-                        base_angle(thetas[i] - self.offsets[i])
-                    }));
-                    solutions.wrist_free[k] = free;
-                }
-            }
-        }
-        if solutions.branches.iter().all(Option::is_none) {
-            return Err(IkError::Unreachable);
-        }
-        Ok(solutions)
+        Ok(Wrist5 {
+            x6,
+            y6,
+            z6,
+            p5,
+            radial: radial_sq.max(0.0).sqrt(),
+            azimuth: p5.y.atan2(p5.x),
+        })
+    }
+
+    /// The joint angles (rad, in (−π, π]) of the elbow UP and DOWN branches of one shoulder
+    /// and wrist, and whether θ6 was free, if the two-link arm reaches.
+    fn branch_pair(
+        &self,
+        w: &Wrist5,
+        shoulder: Shoulder,
+        wrist: Wrist,
+        q6_reference: f64,
+    ) -> Option<([[f64; AXES]; 2], bool)> {
+        // FRONT puts p5 on the side of sign(a2)·u, i.e. p5·u has the sign of a2 (step 1).
+        let along = if shoulder == Shoulder::Front {
+            self.a2.signum() * w.radial
+        } else {
+            -self.a2.signum() * w.radial
+        };
+        let theta1 = w.azimuth + self.d4.atan2(along);
+        let (s1, c1) = theta1.sin_cos();
+        let u = Vector3::new(c1, s1, 0.0);
+        let n = Vector3::new(s1, -c1, 0.0);
+        let c5 = w.z6.dot(&n);
+        let s5_magnitude = w.z6.dot(&u).hypot(w.z6.z);
+        let s5 = if wrist.bit() {
+            -s5_magnitude
+        } else {
+            s5_magnitude
+        };
+        let free = s5_magnitude < WRIST_FREE_SIN;
+        let theta6 = if free {
+            self.free_theta6(&w.p5, &w.x6, &w.y6, q6_reference + self.offsets[5])
+        } else {
+            let (x6n, y6n) = (w.x6.dot(&n), w.y6.dot(&n));
+            (-y6n * s5.signum()).atan2(x6n * s5.signum())
+        };
+        let (s6, c6) = theta6.sin_cos();
+        let x5 = c6 * w.x6 - s6 * w.y6;
+        let z4 = -(s6 * w.x6 + c6 * w.y6);
+        let x4 = c5 * x5 - s5 * w.z6;
+        let theta234 = x4.z.atan2(x4.dot(&u));
+        let o4 = w.p5 - self.d5 * z4;
+        let arms = self.planar_arm(o4.dot(&u), o4.z - self.d1)?;
+        let theta5 = s5.atan2(c5);
+        let joints = arms.map(|(theta2, theta3)| {
+            let thetas = [
+                theta1,
+                theta2,
+                theta3,
+                theta234 - theta2 - theta3,
+                theta5,
+                theta6,
+            ];
+            core::array::from_fn(|i| base_angle(thetas[i] - self.offsets[i]))
+        });
+        Some((joints, free))
     }
 
     /// θ6 at a wrist singularity: `reference` if J4 is then within reach of the two-link arm,
@@ -415,6 +465,22 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn one_branch_is_the_same_as_that_branch_of_all(
+            q in prop::array::uniform6(-PI..PI),
+            q6_ref in -PI..PI,
+            bits in 0u8..8,
+        ) {
+            for robot in test_robots::all() {
+                let g = robot.geometry;
+                let target = robot.kinematics.flange(&q);
+                let config = ArmConfig::from_bits(bits);
+                let all = g.inverse(&target, q6_ref).unwrap();
+                let one = g.inverse_in(&target, config, q6_ref);
+                prop_assert_eq!(one.as_ref(), all.get(config));
+            }
+        }
+
         #[test]
         fn every_branch_reproduces_the_pose_and_the_own_branch_the_joints(
             q in prop::array::uniform6(-PI..PI),

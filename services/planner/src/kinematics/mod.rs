@@ -56,7 +56,7 @@ mod jacobian;
 pub mod selection;
 mod singularity;
 #[cfg(test)]
-mod test_robots;
+pub(crate) mod test_robots;
 pub mod turns;
 
 pub use arm_config::{ArmConfig, ArmConfigElement, Elbow, Shoulder, Wrist};

@@ -20,7 +20,7 @@ use shared_types::srci::message::code;
 
 use super::turns::{TurnNumbers, split_turn};
 use super::{ArmConfig, ArmConfigElement, ArmGeometry, Elbow, IkError, Shoulder, Wrist};
-use crate::joint_move::MoveError;
+use crate::joint_move::{MoveError, check_limits};
 
 /// How one element of the arm configuration is chosen (SRCI ConfigMode, one nibble each).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -49,7 +49,7 @@ impl<T: ArmConfigElement> ConfigMode<T> {
     }
 
     /// The element a solution must have, `None` for any.
-    fn required(self, target: T, current: T) -> Option<T> {
+    pub(crate) fn required(self, target: T, current: T) -> Option<T> {
         match self {
             Self::UseConfig => Some(target),
             Self::Same => Some(current),
@@ -67,6 +67,56 @@ pub struct ConfigModes {
     pub wrist: ConfigMode<Wrist>,
 }
 
+impl ConfigModes {
+    /// The modes of the wire values of Shoulder, Elbow and Wrist.
+    pub fn from_wire([shoulder, elbow, wrist]: [u8; 3]) -> Result<Self, ModeError> {
+        Ok(Self {
+            shoulder: ConfigMode::from_wire(shoulder).ok_or(ModeError::Shoulder(shoulder))?,
+            elbow: ConfigMode::from_wire(elbow).ok_or(ModeError::Elbow(elbow))?,
+            wrist: ConfigMode::from_wire(wrist).ok_or(ModeError::Wrist(wrist))?,
+        })
+    }
+
+    /// The configuration a target must have, element by element, given the one sent with
+    /// it and the current one (`None`: any).
+    pub(crate) fn required(
+        &self,
+        target: ArmConfig,
+        current: ArmConfig,
+    ) -> (Option<Shoulder>, Option<Elbow>, Option<Wrist>) {
+        (
+            self.shoulder.required(target.shoulder, current.shoulder),
+            self.elbow.required(target.elbow, current.elbow),
+            self.wrist.required(target.wrist, current.wrist),
+        )
+    }
+}
+
+/// A ConfigMode or TurnMode wire value the specification does not define.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ModeError {
+    #[error("shoulder ConfigMode {0} is not defined")]
+    Shoulder(u8),
+    #[error("elbow ConfigMode {0} is not defined")]
+    Elbow(u8),
+    #[error("wrist ConfigMode {0} is not defined")]
+    Wrist(u8),
+    #[error("TurnMode {0} is not defined")]
+    Turn(u8),
+}
+
+impl ModeError {
+    /// The SRCI message code reported for this error.
+    pub fn code(&self) -> u16 {
+        match self {
+            Self::Shoulder(_) => code::INVALID_CONFIG_MODE_SHOULDER,
+            Self::Elbow(_) => code::INVALID_CONFIG_MODE_ELBOW,
+            Self::Wrist(_) => code::INVALID_CONFIG_MODE_WRIST,
+            Self::Turn(_) => code::INVALID_TURN_MODE,
+        }
+    }
+}
+
 /// How the turn of each joint is chosen (SRCI TurnMode).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TurnMode {
@@ -81,6 +131,11 @@ pub enum TurnMode {
 }
 
 impl TurnMode {
+    /// The mode of a wire value.
+    pub fn parse(value: u8) -> Result<Self, ModeError> {
+        Self::from_wire(value).ok_or(ModeError::Turn(value))
+    }
+
     /// The mode of a wire value, `None` for values the specification does not define.
     pub fn from_wire(value: u8) -> Option<Self> {
         match value {
@@ -137,14 +192,7 @@ pub fn select(
 ) -> Result<[f64; AXES], SelectionError> {
     let solutions = geometry.inverse(&target.flange, current[5])?;
     let now = geometry.arm_config(current);
-    let modes = target.config_modes;
-    let required = (
-        modes
-            .shoulder
-            .required(target.config.shoulder, now.shoulder),
-        modes.elbow.required(target.config.elbow, now.elbow),
-        modes.wrist.required(target.config.wrist, now.wrist),
-    );
+    let required = target.config_modes.required(target.config, now);
     let mut within: Option<(f64, [f64; AXES])> = None;
     let mut outside: Option<(f64, SelectionError)> = None;
     for (config, base) in solutions.iter() {
@@ -197,24 +245,9 @@ fn nearest_turn(base: f64, current: f64, min: f64, max: f64) -> f64 {
 
 /// The first joint of `q` outside its limits.
 fn limit_violation(q: &[f64; AXES], limits: &JointLimitsRad) -> Option<SelectionError> {
-    let violation = q.iter().enumerate().find_map(|(axis, &target_rad)| {
-        if target_rad < limits.min[axis] {
-            Some(MoveError::BelowLowerLimit {
-                axis,
-                target_rad,
-                limit_rad: limits.min[axis],
-            })
-        } else if target_rad > limits.max[axis] {
-            Some(MoveError::AboveUpperLimit {
-                axis,
-                target_rad,
-                limit_rad: limits.max[axis],
-            })
-        } else {
-            None
-        }
-    });
-    violation.map(SelectionError::OutsideLimits)
+    (0..AXES)
+        .find_map(|axis| check_limits(axis, q[axis], limits, 0.0).err())
+        .map(SelectionError::OutsideLimits)
 }
 
 #[cfg(test)]

@@ -1,0 +1,1005 @@
+//! The Cartesian straight-line move (MoveLinearAbsolute).
+//!
+//! # Path
+//!
+//! The TCP moves from its start pose `(p0, R0)` to the target `(p1, R1)` on
+//! `p(s) = p0 + s·(p1 − p0)`, `R(s) = exp(s·ω)·R0` for `s` in [0, 1], `ω` the rotation vector of
+//! `R1·R0ᵀ` (slerp on the shortest rotation: OriMode LINEAR_INTERPOLATED); with OriMode FIX
+//! `R(s) = R0` and the target orientation is ignored. The flange follows as `T_tcp(s)·tool⁻¹`.
+//!
+//! # Joints
+//!
+//! The analytic inverse kinematics branch of the start configuration (shoulder, elbow and
+//! wrist bits) gives the joints at every `s`, each joint on the turn nearest the previous
+//! point's, so the joints follow the path continuously. Before the move the path is surveyed
+//! at [`SAMPLES`]` + 1` points: each must be reachable in that branch, stay farther from the
+//! singular sets than the thresholds of [`kinematics`](crate::kinematics) (the configuration
+//! cannot change without passing one), lie within the joint limits and be near the sample
+//! before it (a jump means a singular set was passed between them); otherwise the move is
+//! refused before the arm moves.
+//!
+//! # Timing
+//!
+//! One double-S profile on `s`, with the tightest of these limits:
+//!
+//! - the TCP limits of the robot (`cartesian` section) times the command's rates, divided by
+//!   the length of the line (the orientation has no Cartesian limit of its own: the joint
+//!   limits bound it);
+//! - the joint limits along the path. With `q' = dq/ds`, `q'' = d²q/ds²` (central
+//!   differences of the inverse kinematics) and `q'''` (differences of neighbouring samples'
+//!   `q''`), `q̇ = q'·ṡ`, `q̈ = q''·ṡ² + q'·s̈` and `q⃛ = q'''·ṡ³ + 3·q''·ṡ·s̈ + q'·s⃛`. The
+//!   survey takes the largest magnitude of each of them per joint over the samples, times
+//!   [`SAMPLING_MARGIN`] for what lies between the samples. For a path speed `V` and a split
+//!   `f` of the jerk budget the limits are
+//!   - `V ≤ rate_v·v_i/|q'_i|`, `V² ≤ CURVATURE_SHARE·a_i/|q''_i|`,
+//!     `V³ ≤ JERK_SHARE·j_i/|q'''_i|`;
+//!   - `s̈ ≤ rate_a·(a_i − |q''_i|·V²)/|q'_i|` (the deceleration with its own rate) and
+//!     `|s̈| ≤ f·(j_i − |q'''_i|·V³)/(3·|q''_i|·V)`;
+//!   - `|s⃛| ≤ rate_j·(j_i − |q'''_i|·V³ − 3·|q''_i|·V·|s̈|)/|q'_i|`;
+//!
+//!   of the candidates on a grid of `V` ([`SPEED_STEPS`] up to the largest allowed) and `f`
+//!   ([`JERK_SPLITS`]) the one with the shortest profile is taken.
+//!
+//! So `|q̇_i| ≤ v_i`, `|q̈_i| ≤ a_i` and, for the profile and for a stop, `|q⃛_i| ≤ j_i`
+//! everywhere on the path. Velocity and acceleration also hold under override changes (see
+//! [`Timing::plan`]); the jerk then has the terms of the override ramp on top, as for joint
+//! moves.
+//!
+//! The bounds are constants for the whole path, from maxima that may lie at different places:
+//! where the path needs less, the move is slower than a time-optimal path parameterization
+//! (TOPP) would make it.
+
+use core::f64::consts::TAU;
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use shared_types::config::{CartesianLimits, JointLimitsRad};
+use shared_types::ipc::{AXES, JointPoint, MotionCommand};
+use shared_types::pose;
+use shared_types::srci::message::code;
+
+use crate::joint_move::{MoveError, PathLimits, Timing, check_limits, validate_timing};
+use crate::kinematics::selection::{ConfigModes, ModeError, TurnMode};
+use crate::kinematics::turns::TurnNumbers;
+use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
+use crate::profile::DoubleS;
+
+/// Intervals the path is surveyed in before the move.
+pub const SAMPLES: usize = 256;
+/// Factor on the largest sampled `|q'|` and `|q''|` for the parts of the path between the
+/// samples.
+pub const SAMPLING_MARGIN: f64 = 1.1;
+/// Share of a joint's jerk limit the term `q'''·ṡ³` may take at most.
+pub const JERK_SHARE: f64 = 0.5;
+/// Path speeds tried, in equal steps up to the fastest the limits allow.
+pub const SPEED_STEPS: usize = 8;
+/// Shares of the jerk left after `q'''·ṡ³` tried for `3·q''·ṡ·s̈`; the tangential term
+/// `q'·s⃛` keeps the rest.
+pub const JERK_SPLITS: [f64; 4] = [0.2, 0.4, 0.6, 0.8];
+/// Share of a joint's acceleration limit the path curvature term `q''·ṡ²` may take.
+pub const CURVATURE_SHARE: f64 = 0.5;
+/// Step of `s` for the central differences of the joints.
+const DIFF_STEP: f64 = 1e-3;
+/// Shortest line (m) counted as a translation.
+const ZERO_LENGTH_M: f64 = 1e-9;
+/// Smallest rotation (rad) counted as a reorientation.
+const ZERO_ANGLE_RAD: f64 = 1e-9;
+/// How closely (rad) the start branch must reproduce the start joints.
+const START_TOLERANCE_RAD: f64 = 1e-6;
+/// Largest joint change (rad) between two survey samples. A regular path changes far less
+/// (a half turn of the tool over the whole line is 0.012 rad per sample); a branch that
+/// passes a singular set between two samples flips joints by up to π.
+const MAX_SAMPLE_STEP_RAD: f64 = 0.25;
+
+/// Why a MoveLinear cannot be executed; [`code`](Self::code) is the SRCI message code.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum LinearError {
+    #[error(transparent)]
+    Move(#[from] MoveError),
+    #[error(transparent)]
+    Mode(#[from] ModeError),
+    #[error("the target pose or the tool is not finite")]
+    InvalidPose,
+    #[error("OriMode {0} is not supported")]
+    OriModeNotSupported(u8),
+    #[error("OriMode {0} is not defined")]
+    InvalidOriMode(u8),
+    #[error("the robot's kinematics has no analytic inverse")]
+    NoInverseKinematics,
+    #[error("the line leaves the reach of the start configuration at s = {s}")]
+    Unreachable { s: f64 },
+    #[error("the line comes within the singularity margins at s = {s}")]
+    Singular { s: f64 },
+    #[error("the target asks for another configuration than the one the line starts in")]
+    ConfigurationChange,
+    #[error("the line ends on other turn numbers than the ones sent with the target")]
+    TurnMismatch,
+}
+
+impl LinearError {
+    /// The SRCI message code reported for this error.
+    pub fn code(&self) -> u16 {
+        match self {
+            Self::Move(e) => e.code(),
+            Self::Mode(e) => e.code(),
+            Self::InvalidPose => code::INVALID_POSITION,
+            Self::OriModeNotSupported(_) => code::ORI_MODE_NOT_SUPPORTED,
+            Self::InvalidOriMode(_) => code::INVALID_ORI_MODE,
+            Self::NoInverseKinematics
+            | Self::Unreachable { .. }
+            | Self::Singular { .. }
+            | Self::ConfigurationChange
+            | Self::TurnMismatch => code::TARGET_UNREACHABLE,
+        }
+    }
+}
+
+/// How the orientation moves along the line (SRCI OriMode).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OriMode {
+    /// 0 (standard) and 1 LINEAR_INTERPOLATED: slerp on the shortest rotation to the target.
+    Interpolated,
+    /// 3 FIX: the start orientation all the way.
+    Fix,
+}
+
+impl OriMode {
+    /// The mode of a wire value; 2 (JOINT_INTERPOLATED) and 4 (PATH) are not supported.
+    pub fn from_wire(value: u8) -> Result<Self, LinearError> {
+        match value {
+            0 | 1 => Ok(Self::Interpolated),
+            3 => Ok(Self::Fix),
+            2 | 4 => Err(LinearError::OriModeNotSupported(value)),
+            _ => Err(LinearError::InvalidOriMode(value)),
+        }
+    }
+}
+
+/// The TCP limits of the robot in SI units (m/s, m/s², m/s³).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TcpLimits {
+    pub velocity: f64,
+    pub acceleration: f64,
+    pub jerk: f64,
+}
+
+impl TcpLimits {
+    /// The limits of the robot configuration's `cartesian` section.
+    pub fn from_config(limits: &CartesianLimits) -> Self {
+        Self {
+            velocity: limits.max_velocity_mm_s * 1e-3,
+            acceleration: limits.max_acceleration_mm_s2 * 1e-3,
+            jerk: limits.max_jerk_mm_s3 * 1e-3,
+        }
+    }
+}
+
+/// What planning a linear move needs of the robot.
+#[derive(Debug, Clone, Copy)]
+pub struct Arm<'a> {
+    pub kinematics: &'a Kinematics,
+    pub geometry: &'a ArmGeometry,
+    pub joints: &'a JointLimitsRad,
+    pub tcp: &'a TcpLimits,
+}
+
+/// The parameters of a MoveLinear that do not depend on where the arm is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Request {
+    ori_mode: OriMode,
+    config_modes: ConfigModes,
+    turn_mode: TurnMode,
+}
+
+/// Checks what a MoveLinear command asks for independently of where the arm is: the rates
+/// and the duration, a finite pose and tool, the OriMode, ConfigMode and TurnMode.
+pub fn validate(command: &MotionCommand) -> Result<(), LinearError> {
+    request(command).map(|_| ())
+}
+
+fn request(command: &MotionCommand) -> Result<Request, LinearError> {
+    validate_timing(command)?;
+    if !command
+        .pose
+        .iter()
+        .chain(&command.tool)
+        .all(|v| v.is_finite())
+    {
+        return Err(LinearError::InvalidPose);
+    }
+    Ok(Request {
+        ori_mode: OriMode::from_wire(command.ori_mode)?,
+        config_modes: ConfigModes::from_wire(command.config_modes)?,
+        turn_mode: TurnMode::parse(command.turn_mode)?,
+    })
+}
+
+/// The outcome of planning a MoveLinear from a start position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "plans are made and kept in the tick path, where boxing would allocate"
+)]
+pub enum LinearPlan {
+    /// The TCP already is at the target: done without motion (the joints given).
+    Stationary([f64; AXES]),
+    /// The arm has to move.
+    Move(LinearMove),
+}
+
+impl LinearPlan {
+    /// The joints the plan starts from.
+    pub fn start(&self) -> &[f64; AXES] {
+        match self {
+            Self::Stationary(q) => q,
+            Self::Move(m) => &m.line.start,
+        }
+    }
+
+    /// The joints the plan ends in.
+    pub fn target(&self) -> [f64; AXES] {
+        match self {
+            Self::Stationary(q) => *q,
+            Self::Move(m) => m.target,
+        }
+    }
+}
+
+/// The geometric path: the TCP on the line and the joints of the start branch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Line {
+    geometry: ArmGeometry,
+    config: ArmConfig,
+    tool_inverse: Isometry3<f64>,
+    start_position: Vector3<f64>,
+    travel: Vector3<f64>,
+    start_rotation: UnitQuaternion<f64>,
+    /// Rotation vector (base frame) of the whole reorientation.
+    rotation: Vector3<f64>,
+    /// The joints at `s = 0`.
+    start: [f64; AXES],
+}
+
+/// The largest joint path derivatives of a surveyed line and where it ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Survey {
+    /// Largest `|dq_i/ds|`.
+    slope: [f64; AXES],
+    /// Largest `|d²q_i/ds²|`.
+    curvature: [f64; AXES],
+    /// Largest `|d³q_i/ds³|`, from the differences of the second derivatives of
+    /// neighbouring samples.
+    third: [f64; AXES],
+    /// The joints at `s = 1`.
+    end: [f64; AXES],
+}
+
+/// Joints, their first and their second derivative by `s`.
+type JointDerivatives = ([f64; AXES], [f64; AXES], [f64; AXES]);
+
+impl Line {
+    /// The TCP pose at path position `s`.
+    fn tcp(&self, s: f64) -> Isometry3<f64> {
+        let rotation = UnitQuaternion::from_scaled_axis(self.rotation * s) * self.start_rotation;
+        Isometry3::from_parts(
+            Translation3::from(self.start_position + self.travel * s),
+            rotation,
+        )
+    }
+
+    /// The joints of the start branch at `s`, each on the turn nearest `previous`.
+    fn joints_at(&self, s: f64, previous: &[f64; AXES]) -> Option<[f64; AXES]> {
+        let flange = self.tcp(s) * self.tool_inverse;
+        let base = self
+            .geometry
+            .inverse_in(&flange, self.config, previous[5])?;
+        Some(core::array::from_fn(|i| {
+            base[i] + TAU * ((previous[i] - base[i]) / TAU).round()
+        }))
+    }
+
+    /// The joints at `s` (next to `previous`) and their derivatives by `s`, by central
+    /// differences kept inside [0, 1].
+    fn derivatives(&self, s: f64, previous: &[f64; AXES]) -> Option<JointDerivatives> {
+        let q = self.joints_at(s, previous)?;
+        let c = s.clamp(DIFF_STEP, 1.0 - DIFF_STEP);
+        let center = if c == s { q } else { self.joints_at(c, &q)? };
+        let ahead = self.joints_at(c + DIFF_STEP, &center)?;
+        let behind = self.joints_at(c - DIFF_STEP, &center)?;
+        let h = DIFF_STEP;
+        Some((
+            q,
+            core::array::from_fn(|i| (ahead[i] - behind[i]) / (2.0 * h)),
+            core::array::from_fn(|i| (ahead[i] - 2.0 * center[i] + behind[i]) / (h * h)),
+        ))
+    }
+
+    /// Follows the line at the survey samples: every point reachable in the start branch,
+    /// away from singularities and within the joint limits (narrowed between the samples by
+    /// what the curvature may add).
+    fn survey(&self, limits: &JointLimitsRad) -> Result<Survey, LinearError> {
+        let mut survey = Survey {
+            slope: [0.0; AXES],
+            curvature: [0.0; AXES],
+            third: [0.0; AXES],
+            end: self.start,
+        };
+        let mut previous_curvature: Option<[f64; AXES]> = None;
+        let step = 1.0 / SAMPLES as f64;
+        for k in 0..=SAMPLES {
+            let s = k as f64 / SAMPLES as f64;
+            let (q, slope, curvature) = self
+                .derivatives(s, &survey.end)
+                .ok_or(LinearError::Unreachable { s })?;
+            // The start branch must reproduce the start joints, and then move on smoothly.
+            let tolerance = if k == 0 {
+                START_TOLERANCE_RAD
+            } else {
+                MAX_SAMPLE_STEP_RAD
+            };
+            let jumped = q
+                .iter()
+                .zip(&survey.end)
+                .any(|(a, b)| (a - b).abs() > tolerance);
+            if jumped
+                || self.geometry.arm_config(&q) != self.config
+                || self.geometry.singularity_measures(&q).singularities().any()
+            {
+                return Err(LinearError::Singular { s });
+            }
+            for i in 0..AXES {
+                let between = if k == 0 || k == SAMPLES {
+                    0.0
+                } else {
+                    SAMPLING_MARGIN * curvature[i].abs() * step * step / 8.0
+                };
+                check_limits(i, q[i], limits, between)?;
+                survey.slope[i] = survey.slope[i].max(slope[i].abs());
+                survey.curvature[i] = survey.curvature[i].max(curvature[i].abs());
+                if let Some(previous) = previous_curvature {
+                    let third = (curvature[i] - previous[i]).abs() / step;
+                    survey.third[i] = survey.third[i].max(third);
+                }
+            }
+            previous_curvature = Some(curvature);
+            survey.end = q;
+        }
+        Ok(survey)
+    }
+}
+
+/// A planned straight-line move of the TCP.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearMove {
+    line: Line,
+    /// The joints at `s = 1`, exactly as the move ends.
+    target: [f64; AXES],
+    /// Time scaling within the TCP and the joint limits.
+    timing: Timing,
+}
+
+impl LinearMove {
+    /// Plans the move of `command` from the joints `start`; `reserve` as for
+    /// [`JointMove::plan`](crate::joint_move::JointMove::plan).
+    pub fn plan(
+        start: [f64; AXES],
+        command: &MotionCommand,
+        arm: &Arm<'_>,
+        reserve: f64,
+    ) -> Result<LinearPlan, LinearError> {
+        let request = request(command)?;
+        let tool = pose::isometry(command.tool);
+        let tcp = arm.kinematics.flange(&start) * tool;
+        let config = arm.geometry.arm_config(&start);
+        let sent = ArmConfig::from_bits(command.arm_config);
+        let (shoulder, elbow, wrist) = request.config_modes.required(sent, config);
+        if shoulder.is_some_and(|e| e != config.shoulder)
+            || elbow.is_some_and(|e| e != config.elbow)
+            || wrist.is_some_and(|e| e != config.wrist)
+        {
+            return Err(LinearError::ConfigurationChange);
+        }
+        let target = pose::isometry(command.pose);
+        let target_rotation = match request.ori_mode {
+            OriMode::Interpolated => target.rotation,
+            OriMode::Fix => tcp.rotation,
+        };
+        let travel = target.translation.vector - tcp.translation.vector;
+        let rotation = (target_rotation * tcp.rotation.inverse()).scaled_axis();
+        if travel.norm() <= ZERO_LENGTH_M && rotation.norm() <= ZERO_ANGLE_RAD {
+            return Ok(LinearPlan::Stationary(start));
+        }
+        let line = Line {
+            geometry: *arm.geometry,
+            config,
+            tool_inverse: tool.inverse(),
+            start_position: tcp.translation.vector,
+            travel,
+            start_rotation: tcp.rotation,
+            rotation,
+            start,
+        };
+        let survey = line.survey(arm.joints)?;
+        if request.turn_mode == TurnMode::UseTurnNumber {
+            let reached = TurnNumbers::of_joints(&survey.end).map(|t| t.joints);
+            if reached != Ok(TurnNumbers::from_wire(command.turn_numbers).joints) {
+                return Err(LinearError::TurnMismatch);
+            }
+        }
+        let limits = path_limits(command, &survey, travel.norm(), arm, reserve);
+        if !limits.velocity.is_finite() {
+            // A reorientation too small to move any joint measurably.
+            return Ok(LinearPlan::Stationary(start));
+        }
+        Ok(LinearPlan::Move(Self {
+            line,
+            target: survey.end,
+            timing: Timing::plan(limits, reserve, command.duration_s)?,
+        }))
+    }
+
+    /// Joint position where the move ends, exactly as commanded.
+    pub fn target(&self) -> [f64; AXES] {
+        self.target
+    }
+
+    /// The time scaling: path limits from the TCP and joint limits, profile, override rate.
+    pub fn timing(&self) -> &Timing {
+        &self.timing
+    }
+
+    /// The TCP pose at path position `s` (base frame).
+    pub fn tcp(&self, s: f64) -> Isometry3<f64> {
+        self.line.tcp(s)
+    }
+
+    /// The joint point at path position `s` with path velocity `sd` and acceleration `sdd`,
+    /// following `previous` (the point of the last tick). `s = 1` gives the target exactly.
+    pub fn point(&self, s: f64, sd: f64, sdd: f64, previous: &[f64; AXES]) -> JointPoint {
+        let Some((q, slope, curvature)) = self.line.derivatives(s.clamp(0.0, 1.0), previous) else {
+            // Not on a surveyed path: the samples lie within the reach of the branch with
+            // the singularity margins to spare. Hold rather than jump.
+            return JointPoint {
+                q: *previous,
+                ..JointPoint::default()
+            };
+        };
+        JointPoint {
+            q: if s >= 1.0 { self.target } else { q },
+            qd: core::array::from_fn(|i| slope[i] * sd),
+            qdd: core::array::from_fn(|i| curvature[i] * sd * sd + slope[i] * sdd),
+        }
+    }
+}
+
+/// The path limits of a surveyed line of `length` m (see the module documentation): of the
+/// candidates on a grid of path speeds and of splits of the jerk budget, the one with the
+/// shortest profile.
+fn path_limits(
+    command: &MotionCommand,
+    survey: &Survey,
+    length: f64,
+    arm: &Arm<'_>,
+    reserve: f64,
+) -> PathLimits {
+    let per_length = |limit: f64, rate: f64| {
+        if length > ZERO_LENGTH_M {
+            rate * limit / length
+        } else {
+            f64::INFINITY
+        }
+    };
+    let tcp = arm.tcp;
+    let cartesian = PathLimits {
+        velocity: per_length(tcp.velocity, command.velocity_scale),
+        acceleration: per_length(tcp.acceleration, command.acceleration_scale),
+        deceleration: per_length(tcp.acceleration, command.deceleration_scale),
+        jerk: per_length(tcp.jerk, command.jerk_scale),
+    };
+    let bounds = JointBounds::new(survey, arm.joints);
+    let fastest = bounds.fastest(command, cartesian.velocity);
+    let mut best: Option<(f64, PathLimits)> = None;
+    for step in 1..=SPEED_STEPS {
+        let velocity = fastest * step as f64 / SPEED_STEPS as f64;
+        for split in JERK_SPLITS {
+            let limits = bounds.at(command, &cartesian, velocity, split);
+            let duration = DoubleS::new(
+                limits.velocity,
+                (1.0 - reserve) * limits.acceleration,
+                (1.0 - reserve) * limits.deceleration,
+                limits.jerk,
+            )
+            .duration();
+            if best.is_none_or(|(shortest, _)| duration < shortest) {
+                best = Some((duration, limits));
+            }
+        }
+    }
+    best.map_or(cartesian, |(_, limits)| limits)
+}
+
+/// The joint limits against the surveyed path derivatives (with the sampling margin).
+struct JointBounds<'a> {
+    joints: &'a JointLimitsRad,
+    slope: [f64; AXES],
+    curvature: [f64; AXES],
+    third: [f64; AXES],
+}
+
+impl<'a> JointBounds<'a> {
+    fn new(survey: &Survey, joints: &'a JointLimitsRad) -> Self {
+        let [slope, curvature, third] =
+            [survey.slope, survey.curvature, survey.third].map(|d| d.map(|d| SAMPLING_MARGIN * d));
+        Self {
+            joints,
+            slope,
+            curvature,
+            third,
+        }
+    }
+
+    /// The largest path speed: `|q'|·ṡ ≤ rate_v·v`, `|q''|·ṡ² ≤ CURVATURE_SHARE·a`,
+    /// `|q'''|·ṡ³ ≤ JERK_SHARE·j`, and the Cartesian `cartesian` (1/s).
+    fn fastest(&self, command: &MotionCommand, cartesian: f64) -> f64 {
+        let j = self.joints;
+        (0..AXES).fold(cartesian, |v, i| {
+            v.min(command.velocity_scale * j.velocity[i] / self.slope[i])
+                .min((CURVATURE_SHARE * j.acceleration[i] / self.curvature[i]).sqrt())
+                .min((JERK_SHARE * j.jerk[i] / self.third[i]).cbrt())
+        })
+    }
+
+    /// The limits at path speed `velocity` (not above [`fastest`](Self::fastest)) with the
+    /// share `split` of the jerk left after `|q'''|·ṡ³` given to `3·|q''|·ṡ·|s̈|`.
+    fn at(
+        &self,
+        command: &MotionCommand,
+        cartesian: &PathLimits,
+        velocity: f64,
+        split: f64,
+    ) -> PathLimits {
+        let j = self.joints;
+        let (mut tangential, mut cross) = (f64::INFINITY, f64::INFINITY);
+        for i in 0..AXES {
+            let left = j.acceleration[i] - self.curvature[i] * velocity * velocity;
+            tangential = tangential.min(left / self.slope[i]);
+            let jerk_left = j.jerk[i] - self.third[i] * velocity.powi(3);
+            cross = cross.min(split * jerk_left / (3.0 * self.curvature[i] * velocity));
+        }
+        let acceleration = cartesian
+            .acceleration
+            .min(command.acceleration_scale * tangential)
+            .min(cross);
+        let deceleration = cartesian
+            .deceleration
+            .min(command.deceleration_scale * tangential)
+            .min(cross);
+        let braking = acceleration.max(deceleration);
+        let jerk = (0..AXES).fold(cartesian.jerk, |jerk, i| {
+            let left = j.jerk[i]
+                - self.third[i] * velocity.powi(3)
+                - 3.0 * self.curvature[i] * velocity * braking;
+            jerk.min(command.jerk_scale * left / self.slope[i])
+        });
+        PathLimits {
+            velocity,
+            acceleration,
+            deceleration,
+            jerk,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::test_robots::{self, Robot};
+    use crate::test_support::{assert_jerk_within_limits, assert_within_limits};
+    use nalgebra::Vector3;
+    use proptest::prelude::*;
+    use shared_types::ipc::MotionCommandKind;
+
+    const DT: f64 = 1e-3;
+
+    struct Setup {
+        robot: Robot,
+        joints: JointLimitsRad,
+        tcp: TcpLimits,
+    }
+
+    impl Setup {
+        fn new() -> Self {
+            let robot = test_robots::default();
+            Self {
+                joints: robot.config.limits_rad(),
+                tcp: TcpLimits::from_config(&robot.config.cartesian),
+                robot,
+            }
+        }
+
+        fn arm(&self) -> Arm<'_> {
+            Arm {
+                kinematics: &self.robot.kinematics,
+                geometry: &self.robot.geometry,
+                joints: &self.joints,
+                tcp: &self.tcp,
+            }
+        }
+
+        fn plan(&self, start: [f64; AXES], c: &MotionCommand) -> Result<LinearPlan, LinearError> {
+            LinearMove::plan(start, c, &self.arm(), 0.2)
+        }
+
+        fn planned(&self, start: [f64; AXES], c: &MotionCommand) -> LinearMove {
+            match self.plan(start, c) {
+                Ok(LinearPlan::Move(m)) => m,
+                other => panic!("{other:?}"),
+            }
+        }
+
+        /// The TCP pose of `q` with the tool of `c`.
+        fn tcp_of(&self, q: &[f64; AXES], c: &MotionCommand) -> Isometry3<f64> {
+            self.robot.kinematics.flange(q) * pose::isometry(c.tool)
+        }
+
+        /// Executes `m` tick by tick; returns the points.
+        fn run(&self, m: &LinearMove, start: [f64; AXES]) -> Vec<JointPoint> {
+            let mut points = vec![JointPoint {
+                q: start,
+                ..JointPoint::default()
+            }];
+            let profile = &m.timing().profile;
+            let ticks = (profile.duration() / DT).ceil() as usize;
+            for k in 1..=ticks {
+                let (s, sd, sdd) = profile.eval(k as f64 * DT);
+                let previous = points.last().unwrap().q;
+                points.push(m.point(s, sd, sdd, &previous));
+            }
+            points
+        }
+
+        fn check_limits(&self, points: &[JointPoint]) {
+            assert_within_limits(points, &self.joints, DT);
+            assert_jerk_within_limits(points, &self.joints, DT);
+        }
+    }
+
+    /// A regular pose of the Zu 7: FRONT, UP, NON_FLIP, far from every singularity.
+    fn regular() -> [f64; AXES] {
+        [0.3, 0.6, -1.2, 0.9, 1.2, 0.4]
+    }
+
+    fn linear_to(pose: [f64; 6]) -> MotionCommand {
+        let mut c = MotionCommand::new(MotionCommandKind::MoveLinear);
+        c.pose = pose;
+        c
+    }
+
+    /// The pose `[x, y, z, Rx, Ry, Rz]` of `t`.
+    fn pose_of(t: &Isometry3<f64>) -> [f64; 6] {
+        pose::pose(t)
+    }
+
+    /// The TCP of `start` shifted by `shift` (m) and turned by `turn` (rotation vector, rad,
+    /// base frame).
+    fn moved(
+        setup: &Setup,
+        start: &[f64; AXES],
+        c: &MotionCommand,
+        shift: [f64; 3],
+        turn: [f64; 3],
+    ) -> [f64; 6] {
+        let tcp = setup.tcp_of(start, c);
+        let rotation = UnitQuaternion::from_scaled_axis(Vector3::from(turn)) * tcp.rotation;
+        let position = tcp.translation.vector + Vector3::from(shift);
+        pose_of(&Isometry3::from_parts(
+            Translation3::from(position),
+            rotation,
+        ))
+    }
+
+    /// Distance (m) of `p` from the line through `a` and `b`.
+    fn off_line(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+        let dir = (b - a).normalize();
+        let d = p - a;
+        (d - dir * d.dot(&dir)).norm()
+    }
+
+    #[test]
+    fn the_tcp_stays_on_the_line_and_the_orientation_on_the_slerp() {
+        let setup = Setup::new();
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        c.tool = [0.02, -0.01, 0.15, 0.3, 0.0, -0.2];
+        c.pose = moved(&setup, &start, &c, [0.25, -0.1, 0.15], [0.3, -0.4, 0.5]);
+        let m = setup.planned(start, &c);
+        let points = setup.run(&m, start);
+        assert!(points.len() > 100);
+        let (a, b) = (setup.tcp_of(&start, &c), pose::isometry(c.pose));
+        let (pa, pb) = (a.translation.vector, b.translation.vector);
+        let mut last_s = 0.0;
+        for p in &points {
+            let tcp = setup.tcp_of(&p.q, &c);
+            let deviation = off_line(&tcp.translation.vector, &pa, &pb);
+            assert!(deviation < 1e-5, "{deviation} m off the line");
+            // The orientation is the slerp at the fraction of the way the position is.
+            let s = (tcp.translation.vector - pa).norm() / (pb - pa).norm();
+            assert!(s >= last_s - 1e-12, "went back");
+            last_s = s;
+            let expected = a.rotation.slerp(&b.rotation, s);
+            assert!(
+                tcp.rotation.angle_to(&expected) < 1e-6,
+                "orientation off the slerp"
+            );
+        }
+        let end = setup.tcp_of(&points.last().unwrap().q, &c);
+        assert!((end.translation.vector - pb).norm() < 1e-9);
+        assert!(end.rotation.angle_to(&b.rotation) < 1e-9);
+        assert_eq!(points.last().unwrap().q, m.target());
+        setup.check_limits(&points);
+    }
+
+    #[test]
+    fn the_slerp_takes_the_shorter_way_round() {
+        let setup = Setup::new();
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        // 200° about z one way is 160° the other way.
+        c.pose = moved(
+            &setup,
+            &start,
+            &c,
+            [0.0, 0.0, 0.05],
+            [0.0, 0.0, 200f64.to_radians()],
+        );
+        let m = setup.planned(start, &c);
+        assert!((m.line.rotation.norm() - 160f64.to_radians()).abs() < 1e-9);
+        assert!(m.line.rotation.z < 0.0);
+    }
+
+    #[test]
+    fn fix_keeps_the_start_orientation() {
+        let setup = Setup::new();
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        c.ori_mode = 3;
+        c.pose = moved(&setup, &start, &c, [-0.1, 0.2, 0.05], [1.0, 0.5, 0.2]);
+        let m = setup.planned(start, &c);
+        let points = setup.run(&m, start);
+        let rotation = setup.tcp_of(&start, &c).rotation;
+        for p in &points {
+            assert!(setup.tcp_of(&p.q, &c).rotation.angle_to(&rotation) < 1e-9);
+        }
+        let end = setup.tcp_of(&points.last().unwrap().q, &c);
+        let target = pose::isometry(c.pose).translation.vector;
+        assert!((end.translation.vector - target).norm() < 1e-9);
+        setup.check_limits(&points);
+    }
+
+    #[test]
+    fn a_pure_reorientation_is_limited_by_the_joints() {
+        let setup = Setup::new();
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        c.pose = moved(&setup, &start, &c, [0.0; 3], [0.0, 0.0, 0.6]);
+        let m = setup.planned(start, &c);
+        let points = setup.run(&m, start);
+        let p0 = setup.tcp_of(&start, &c).translation.vector;
+        for p in &points {
+            assert!((setup.tcp_of(&p.q, &c).translation.vector - p0).norm() < 1e-9);
+        }
+        setup.check_limits(&points);
+        // Some joint comes near one of its limits: the bound is cautious, not absurdly so.
+        let l = &setup.joints;
+        let peak = points
+            .windows(2)
+            .flat_map(|w| {
+                (0..AXES).map(move |i| {
+                    let jerk = (w[1].qdd[i] - w[0].qdd[i]).abs() / DT;
+                    (w[1].qd[i].abs() / l.velocity[i])
+                        .max(w[1].qdd[i].abs() / l.acceleration[i])
+                        .max(jerk / l.jerk[i])
+                })
+            })
+            .fold(0.0, f64::max);
+        assert!(peak > 0.3, "{peak}");
+    }
+
+    #[test]
+    fn the_tcp_speed_follows_the_cartesian_limit_and_the_rate() {
+        let mut setup = Setup::new();
+        // A TCP limit below what the joints allow here.
+        setup.tcp.velocity = 0.1;
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        c.ori_mode = 3;
+        c.pose = moved(&setup, &start, &c, [0.0, 0.0, 0.2], [0.0; 3]);
+        c.velocity_scale = 0.5;
+        let m = setup.planned(start, &c);
+        // 50 % of 0.1 m/s over 0.2 m.
+        assert!((m.timing().limits.velocity - 0.5 * 0.1 / 0.2).abs() < 1e-12);
+        let points = setup.run(&m, start);
+        let mut fastest: f64 = 0.0;
+        for w in points.windows(2) {
+            let (a, b) = (setup.tcp_of(&w[0].q, &c), setup.tcp_of(&w[1].q, &c));
+            let speed = (b.translation.vector - a.translation.vector).norm() / DT;
+            assert!(speed <= 0.05 * (1.0 + 1e-6), "{speed} m/s");
+            fastest = fastest.max(speed);
+        }
+        assert!(fastest > 0.0499, "{fastest}");
+        // The joint velocity limits scale with the rate too.
+        c.velocity_scale = 0.05;
+        setup.tcp.velocity = 100.0;
+        let slow = setup.planned(start, &c);
+        for p in setup.run(&slow, start) {
+            for i in 0..AXES {
+                assert!(p.qd[i].abs() <= 0.05 * setup.joints.velocity[i] * (1.0 + 1e-9));
+            }
+        }
+    }
+
+    #[test]
+    fn a_zero_length_line_is_stationary() {
+        let setup = Setup::new();
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        c.pose = moved(&setup, &start, &c, [0.0; 3], [0.0; 3]);
+        assert_eq!(setup.plan(start, &c), Ok(LinearPlan::Stationary(start)));
+    }
+
+    #[test]
+    fn a_requested_duration_stretches_or_is_refused() {
+        let setup = Setup::new();
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        c.pose = moved(&setup, &start, &c, [0.05, -0.05, 0.1], [0.0; 3]);
+        let fastest = setup.planned(start, &c).timing().profile.duration();
+        c.duration_s = 3.0 * fastest;
+        let m = setup.planned(start, &c);
+        assert!((m.timing().profile.duration() - 3.0 * fastest).abs() < 1e-12);
+        c.duration_s = 0.5 * fastest;
+        assert_eq!(
+            setup.plan(start, &c).unwrap_err().code(),
+            code::INVALID_TIME
+        );
+    }
+
+    #[test]
+    fn errors_are_found_before_the_move() {
+        let setup = Setup::new();
+        let start = regular();
+        let base = linear_to([0.0; 6]);
+        let code_of = |c: &MotionCommand| setup.plan(start, c).map(|_| ()).unwrap_err().code();
+
+        // Far out of reach.
+        let mut c = base;
+        c.pose = moved(&setup, &start, &c, [2.0, 0.0, 0.0], [0.0; 3]);
+        assert_eq!(code_of(&c), code::TARGET_UNREACHABLE);
+        // Straight out beyond the reach: the arm stretches (elbow singular) on the way.
+        let mut c = base;
+        c.ori_mode = 3;
+        let tcp = setup.tcp_of(&start, &c).translation.vector;
+        let outward = [0.5 * tcp.x, 0.5 * tcp.y, 0.0];
+        c.pose = moved(&setup, &start, &c, outward, [0.0; 3]);
+        assert!(matches!(
+            setup.plan(start, &c),
+            Err(LinearError::Singular { .. } | LinearError::Unreachable { .. })
+        ));
+        assert_eq!(code_of(&c), code::TARGET_UNREACHABLE);
+        // Through the wrist singularity: J5 would have to pass 0.
+        let mut near_wrist = start;
+        near_wrist[4] = 0.1;
+        let mut c = base;
+        let mut beyond = near_wrist;
+        beyond[4] = -0.1;
+        c.pose = pose_of(&setup.tcp_of(&beyond, &c));
+        assert!(
+            matches!(setup.plan(near_wrist, &c), Err(LinearError::Singular { s }) if s > 0.0 && s < 1.0),
+            "{:?}",
+            setup.plan(near_wrist, &c)
+        );
+        // A configuration other than the start's, asked for explicitly.
+        let mut c = base;
+        c.pose = moved(&setup, &start, &c, [0.05, 0.0, 0.0], [0.0; 3]);
+        c.config_modes = [1, 3, 1];
+        assert_eq!(setup.plan(start, &c), Err(LinearError::ConfigurationChange));
+        c.config_modes = [1, 4, 1];
+        assert!(setup.plan(start, &c).is_ok());
+        c.config_modes = [1, 7, 1];
+        assert_eq!(code_of(&c), code::INVALID_CONFIG_MODE_ELBOW);
+        // OriModes.
+        let mut c = base;
+        c.pose = moved(&setup, &start, &c, [0.05, 0.0, 0.0], [0.0; 3]);
+        for (mode, expected) in [(2, 0x8E08), (4, 0x8E08), (5, 0x8D22), (255, 0x8D22)] {
+            c.ori_mode = mode;
+            assert_eq!(code_of(&c), expected, "OriMode {mode}");
+        }
+        // Not finite, bad rates.
+        let mut c = base;
+        c.pose[2] = f64::NAN;
+        assert_eq!(code_of(&c), code::INVALID_POSITION);
+        let mut c = base;
+        c.pose = moved(&setup, &start, &c, [0.05, 0.0, 0.0], [0.0; 3]);
+        c.deceleration_scale = 0.0;
+        assert_eq!(code_of(&c), code::INVALID_DECELERATION_RATE);
+    }
+
+    #[test]
+    fn a_line_beyond_a_joint_limit_is_refused_with_its_code() {
+        let setup = Setup::new();
+        // J1 at 355° (limit 359°): a chord to the pose of J1 at 365° turns J1 past it.
+        let mut start = regular();
+        start[0] = 355f64.to_radians();
+        let mut beyond = start;
+        beyond[0] = 365f64.to_radians();
+        let mut c = linear_to([0.0; 6]);
+        c.pose = pose_of(&setup.tcp_of(&beyond, &c));
+        assert_eq!(
+            setup.plan(start, &c).unwrap_err().code(),
+            code::SW_LIMIT_UPPER
+        );
+        // The same on the other side.
+        start[0] = -start[0];
+        beyond[0] = -beyond[0];
+        c.pose = pose_of(&setup.tcp_of(&beyond, &c));
+        assert_eq!(
+            setup.plan(start, &c).unwrap_err().code(),
+            code::SW_LIMIT_LOWER
+        );
+        // Short of the limit it goes, and ends on the next turn of J1's base angle.
+        beyond[0] = (-358f64).to_radians();
+        c.pose = pose_of(&setup.tcp_of(&beyond, &c));
+        let m = setup.planned(start, &c);
+        assert!((m.target()[0] - beyond[0]).abs() < 1e-9, "{:?}", m.target());
+    }
+
+    #[test]
+    fn turn_numbers_sent_with_the_target_must_match_the_line() {
+        let setup = Setup::new();
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        c.pose = moved(&setup, &start, &c, [0.05, 0.0, 0.0], [0.0; 3]);
+        c.turn_mode = 0;
+        c.turn_numbers = [0; 4];
+        assert!(setup.plan(start, &c).is_ok());
+        c.turn_numbers = [0x01, 0, 0, 0];
+        assert_eq!(setup.plan(start, &c), Err(LinearError::TurnMismatch));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(32))]
+
+        /// Any reachable line from a random start keeps the joint velocity and acceleration
+        /// limits at every tick and stays on the line.
+        #[test]
+        fn random_lines_keep_the_joint_limits(
+            q in prop::array::uniform6(-1.0f64..1.0),
+            shift in prop::array::uniform3(-0.3f64..0.3),
+            turn in prop::array::uniform3(-0.8f64..0.8),
+            velocity in 0.1f64..=1.0,
+            acceleration in 0.1f64..=1.0,
+            deceleration in 0.1f64..=1.0,
+        ) {
+            let setup = Setup::new();
+            let base = regular();
+            let start: [f64; AXES] = core::array::from_fn(|i| base[i] + 0.5 * q[i]);
+            let mut c = linear_to([0.0; 6]);
+            c.pose = moved(&setup, &start, &c, shift, turn);
+            c.velocity_scale = velocity;
+            c.acceleration_scale = acceleration;
+            c.deceleration_scale = deceleration;
+            let planned = setup.plan(start, &c);
+            let Ok(LinearPlan::Move(m)) = planned else {
+                // Unreachable or singular lines are other tests' business.
+                return Err(TestCaseError::reject(format!("{planned:?}")));
+            };
+            let points = setup.run(&m, start);
+            setup.check_limits(&points);
+            let (pa, pb) = (setup.tcp_of(&start, &c).translation.vector, pose::isometry(c.pose).translation.vector);
+            if (pb - pa).norm() > 1e-3 {
+                for p in &points {
+                    prop_assert!(off_line(&setup.tcp_of(&p.q, &c).translation.vector, &pa, &pb) < 1e-5);
+                }
+            }
+        }
+    }
+}
