@@ -172,6 +172,10 @@ pub struct MotionCommand {
     pub pose: [f64; 6],
     /// The TCP in the flange frame (the active tool), same units; zero = the flange itself.
     pub tool: [f64; 6],
+    /// The SW limits the PLC set (rad), inside which every point of the move must stay; the
+    /// planner applies the mechanical limits as well. Infinite = only the mechanical ones.
+    pub sw_lower_rad: [f64; AXES],
+    pub sw_upper_rad: [f64; AXES],
     /// SRCI configuration bits and TurnNumber bytes sent with the pose.
     pub arm_config: u8,
     pub turn_numbers: [u8; 4],
@@ -232,6 +236,8 @@ impl MotionCommand {
             override_fraction: 1.0,
             pose: [0.0; 6],
             tool: [0.0; 6],
+            sw_lower_rad: [f64::NEG_INFINITY; AXES],
+            sw_upper_rad: [f64::INFINITY; AXES],
             arm_config: 0,
             turn_numbers: [0; 4],
             // SAME configuration, FREE turns: the SRCI defaults.

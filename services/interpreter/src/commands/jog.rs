@@ -167,6 +167,9 @@ impl Server {
             c.joints_rad = request.target(status.joints_rad, limits.lower, limits.upper);
             c.velocity_scale = request.velocity_scale;
             c.acceleration_scale = JOG_ACCELERATION;
+            c.deceleration_scale = JOG_ACCELERATION;
+            c.sw_lower_rad = limits.lower;
+            c.sw_upper_rad = limits.upper;
             match self.motion.submit(
                 c,
                 Some((cmd_id, h.par_seq, gj::TYPE)),

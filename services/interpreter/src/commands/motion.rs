@@ -159,15 +159,16 @@ fn decode_move(
     c.jerk_scale = jerk;
     c.duration_s = f64::from(r.u16(layout.time)) / 1000.0;
     c.tool = tool;
+    let limits = data.sw_limits_rad();
+    c.sw_lower_rad = limits.lower;
+    c.sw_upper_rad = limits.upper;
     Ok(c)
 }
 
 /// The rates and Time of a ReturnToPrimary request as a planner command (kind and target
 /// are set by the caller).
-pub(crate) fn decode_return(
-    r: &PayloadReader<'_>,
-    defaults: crate::user_data::DefaultRates,
-) -> Result<MotionCommand, u16> {
+pub(crate) fn decode_return(r: &PayloadReader<'_>, data: &UserData) -> Result<MotionCommand, u16> {
+    let defaults = data.default_rates();
     let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
     c.velocity_scale = rate(
         r.u16(rtp::request::VELOCITY_RATE),
@@ -190,6 +191,9 @@ pub(crate) fn decode_return(
         code::INVALID_JERK_RATE,
     )?;
     c.duration_s = f64::from(r.u16(rtp::request::TIME)) / 1000.0;
+    let limits = data.sw_limits_rad();
+    c.sw_lower_rad = limits.lower;
+    c.sw_upper_rad = limits.upper;
     Ok(c)
 }
 

@@ -153,7 +153,7 @@ impl Server {
                 write_primary_pos(&mut w, primary);
             });
         };
-        let mut c = match super::motion::decode_return(&r, self.user_data.default_rates()) {
+        let mut c = match super::motion::decode_return(&r, &self.user_data) {
             Ok(c) => c,
             Err(e) => return self.respond(cmd_id, h, state::ERROR, e, now, |_| {}),
         };
