@@ -175,7 +175,8 @@ fn every_parameter_is_checked() {
         (edited(|m| m.joints_deg[0] = 400.0), code::SW_LIMIT_UPPER),
         (edited(|m| m.joints_deg[1] = -100.0), code::SW_LIMIT_LOWER),
         (raw_move(2), code::INVALID_EXECUTION_MODE),
-        (raw_move(7), code::INVALID_EXECUTION_MODE),
+        // The secondary sequence takes moves only after SetSequence(2).
+        (raw_move(7), code::SECONDARY_NOT_ACTIVE),
     ];
     for (request, expected) in cases {
         refused(&mut plc, &request, expected);

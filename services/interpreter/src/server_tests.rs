@@ -1320,3 +1320,45 @@ fn without_an_orchestrator_group_reset_goes_to_the_planner_at_once() {
             .any(|c| c.kind == MotionCommandKind::Reset as u8)
     );
 }
+
+#[test]
+fn the_tool_and_frame_of_an_accepted_move_become_the_ones_in_use() {
+    use t::move_linear_absolute as mla;
+    let (mut server, mut plc, _fx) = session(DriveState::Holding);
+    let mut msg = request(mla::TYPE, 0, mla::request::LEN);
+    {
+        let mut w = PayloadWriter::new(&mut msg);
+        for f in [
+            mla::request::VELOCITY_RATE,
+            mla::request::ACCELERATION_RATE,
+            mla::request::DECELERATION_RATE,
+            mla::request::JERK_RATE,
+        ] {
+            w.set_u16(f, 0xFFFF);
+        }
+        w.set_u8(mla::request::TOOL_NO, 3);
+        w.set_u8(mla::request::FRAME_NO, 2);
+        w.set_f32(mla::request::POSITION_X, 400.0);
+    }
+    plc.command(&mut server, 6, NEW, &msg);
+    let mut read = request(
+        t::read_actual_position::TYPE,
+        2,
+        t::read_actual_position::request::LEN,
+    );
+    {
+        let mut w = PayloadWriter::new(&mut read);
+        w.set_u8(t::read_actual_position::request::TOOL_NO, 255);
+        w.set_u8(t::read_actual_position::request::FRAME_NO, 255);
+    }
+    plc.command(&mut server, 7, NEW, &read);
+    let body = last_body(&plc, 7);
+    let r = PayloadReader::new(&body);
+    assert_eq!(
+        (
+            r.u8(t::read_actual_position::response::TOOL_NO_RETURN),
+            r.u8(t::read_actual_position::response::FRAME_NO_RETURN)
+        ),
+        (3, 2)
+    );
+}

@@ -339,6 +339,7 @@ impl Server {
             Ok(mut command) => {
                 // StepMode: every primary move holds the sequence when it ends.
                 command.hold_after = !secondary && self.step_mode != 0;
+                self.select_tool_and_frame(h.command_type, msg);
                 self.submit_job(cmd_id, h, command, now, fx);
                 if command.kind == MotionCommandKind::MoveLinear as u8
                     && let Some(LiveKind::Job { line, .. }) = self
@@ -354,6 +355,21 @@ impl Server {
                 }
             }
             Err(c) => self.respond(cmd_id, h, state::ERROR, c, now, |_| {}),
+        }
+    }
+
+    /// The tool and frame of an accepted move become the ones in use (what -1 means to the
+    /// next command and to the cyclic position); the move's decoding validated them.
+    fn select_tool_and_frame(&mut self, command_type: u16, msg: &[u8]) {
+        let r = PayloadReader::new(msg);
+        let (tool, frame) = match command_type {
+            mda::TYPE => (MOVE_DIRECT.common.tool, Some(MOVE_DIRECT.frame)),
+            mla::TYPE => (MOVE_LINEAR.common.tool, Some(MOVE_LINEAR.frame)),
+            _ => (MOVE_AXES.tool, None),
+        };
+        let _ = self.user_data.select_tool(r.u8(tool));
+        if let Some(frame) = frame {
+            let _ = self.user_data.select_frame(r.u8(frame));
         }
     }
 
