@@ -203,6 +203,47 @@ fn rc_restart_of_the_planner_during_a_move_stops_the_arm_and_ends_the_move_with_
 }
 
 #[test]
+fn rc_restart_of_the_interpreter_keeps_the_session_and_the_running_move() {
+    let c = Controller::start("suphot");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    reset_and_enable(&mut plc);
+    let old = c.pid_of("interpreter").expect("interpreter pid");
+    let target = [40.0, 100.0, 80.0, 80.0, -70.0, 30.0];
+    let handle = start_slow_move(&mut plc, target);
+    // The PLC exchanges every 8 ms with a 50 ms lifesign throughout.
+    let out = rc_while_cycling(
+        &mut plc,
+        &["restart", "interpreter"],
+        &c.dir.join("default.toml"),
+    );
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let new = c.pid_of("interpreter").expect("interpreter pid");
+    assert_ne!(new, old, "a new interpreter process");
+    let done = run_until_state(&mut plc, handle, state::DONE, Duration::from_secs(30));
+    assert_eq!(
+        (done.state, done.code),
+        (state::DONE, 0),
+        "the running move finished normally: {done:?}"
+    );
+    assert_eq!(
+        plc.task().resumes(),
+        0,
+        "no RESUME: the session never broke"
+    );
+    assert_eq!(plc.task().status_word() & ERROR_PENDING, 0);
+    assert!(
+        move_to(&mut plc, common::HOME, 100.0) < 0.01,
+        "and the next move works"
+    );
+}
+
+#[test]
 fn rc_restart_without_a_controller_says_so() {
     let dir = std::env::temp_dir().join(format!("rc-test-norestart-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");

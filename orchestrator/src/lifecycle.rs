@@ -111,6 +111,10 @@ pub enum Action {
     Spawn(Service),
     /// Ask its process to stop (SIGTERM).
     Terminate(Service),
+    /// A planned restart of a service that hands its state over (the interpreter): start
+    /// its successor in standby first, and ask the running process to stop (SIGTERM) once
+    /// the successor beats. The next [`Action::Spawn`] of the service takes that successor.
+    HandOver(Service),
     /// Kill its process (SIGKILL).
     Kill(Service),
 }
@@ -480,7 +484,12 @@ impl Lifecycle {
                     killed: false,
                     then: AfterStop::Respawn,
                 };
-                self.actions.push_back(Action::Terminate(service));
+                // The interpreter hands its SRCI session to its successor.
+                self.actions.push_back(if service == Service::Interpreter {
+                    Action::HandOver(service)
+                } else {
+                    Action::Terminate(service)
+                });
             }
             Phase::Failed | Phase::Stopped => slot.phase = Phase::Down,
             // Already on its way to a new process.
@@ -985,6 +994,40 @@ mod tests {
             .request(&SupervisionRequest::restart(5, Service::Planner), h.now);
         assert!(h.tick(MS).is_empty());
         assert_eq!(h.pid(Service::Planner), new);
+    }
+
+    #[test]
+    fn a_planned_restart_of_the_interpreter_hands_over_to_a_successor() {
+        let mut h = Harness::new(0);
+        h.start_all();
+        let old = h.pid(Service::Interpreter);
+        h.life
+            .request(&SupervisionRequest::restart(6, Service::Interpreter), h.now);
+        assert_eq!(h.tick(MS), vec![Action::HandOver(Service::Interpreter)]);
+        assert_eq!(
+            h.state(Service::Interpreter),
+            ServiceState::Restarting,
+            "the old process runs until the successor beats"
+        );
+        h.life.exited(Service::Interpreter, Exit::Code(0), h.now);
+        h.tick(MS);
+        let new = h.pid(Service::Interpreter);
+        assert!(
+            new != 0 && new != old,
+            "the successor is the service's process"
+        );
+        h.beat_all_but(&[]);
+        h.tick(MS);
+        let status = h.life.status();
+        assert_eq!(
+            (status.request_id, status.request_outcome),
+            (6, RequestOutcome::Done as u8)
+        );
+        assert_eq!(
+            status.service(Service::Fieldbus).restarts,
+            0,
+            "not rest_for_one"
+        );
     }
 
     #[test]

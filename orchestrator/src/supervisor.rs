@@ -11,7 +11,8 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use shared_types::config::OrchestratorConfig;
-use shared_types::health::{SERVICES, STATUS_REPUBLISH_INTERVAL_NS, Service};
+use shared_types::health::{SERVICES, STATUS_REPUBLISH_INTERVAL_NS, Service, ServiceHealth};
+use shared_types::supervision::HANDOVER_ENV;
 use shared_types::time::monotonic_ns;
 use tracing::{error, info, warn};
 
@@ -36,6 +37,9 @@ where
     link: K,
     life: Lifecycle,
     processes: [Option<ServiceProcess>; SERVICES],
+    /// The successor of a service that hands over, in standby, and whether its predecessor
+    /// was asked to stop.
+    successor: Option<(ServiceProcess, bool)>,
     config: OrchestratorConfig,
     pid_file: PathBuf,
     /// Generation and time of the last published status.
@@ -58,6 +62,7 @@ where
             link,
             life: Lifecycle::new(config, std::process::id()),
             processes: Default::default(),
+            successor: None,
             config: config.clone(),
             pid_file,
             published: None,
@@ -87,6 +92,7 @@ where
             let now = Instant::now();
             self.link.receive_health(&mut health)?;
             for sample in health.drain(..) {
+                self.successor_beats(&sample);
                 self.life.health(&sample, now);
             }
             self.link.receive_requests(&mut requests)?;
@@ -142,6 +148,13 @@ where
         while let Some(action) = self.life.next_action() {
             match action {
                 Action::Spawn(service) => {
+                    if let Some(process) = self.successor_of(service) {
+                        info!("{service} pid={} takes over", process.pid());
+                        self.life.spawned(service, process.pid(), now);
+                        self.processes[service.index()] = Some(process);
+                        self.write_pid_file()?;
+                        continue;
+                    }
                     match ServiceProcess::spawn(service, (self.launcher)(service)) {
                         Ok(process) => {
                             info!("spawned {service} pid={}", process.pid());
@@ -160,6 +173,7 @@ where
                         process.terminate();
                     }
                 }
+                Action::HandOver(service) => self.start_successor(service),
                 Action::Kill(service) => {
                     if let Some(process) = self.processes[service.index()].as_mut()
                         && let Err(e) = process.kill()
@@ -170,6 +184,63 @@ where
             }
         }
         Ok(())
+    }
+
+    /// Starts the successor of `service` in standby (it waits for its predecessor's state);
+    /// the predecessor is asked to stop once the successor beats. Without a successor the
+    /// predecessor stops at once and the service restarts the usual way.
+    fn start_successor(&mut self, service: Service) {
+        let mut command = (self.launcher)(service);
+        command.env(HANDOVER_ENV, "standby");
+        match ServiceProcess::spawn(service, command) {
+            Ok(process) => {
+                info!("spawned {service} pid={} in standby", process.pid());
+                self.successor = Some((process, false));
+            }
+            Err(e) => {
+                warn!("cannot spawn a successor of {service}, restarting it instead: {e}");
+                if let Some(process) = &self.processes[service.index()] {
+                    process.terminate();
+                }
+            }
+        }
+    }
+
+    /// A heartbeat of the successor in standby: it is ready, its predecessor may stop now.
+    fn successor_beats(&mut self, health: &ServiceHealth) {
+        let Some((successor, asked)) = self.successor.as_mut() else {
+            return;
+        };
+        if *asked || successor.pid() != health.pid {
+            return;
+        }
+        *asked = true;
+        let service = successor.service();
+        if let Some(process) = &self.processes[service.index()] {
+            info!(
+                "{service} successor pid={} ready: asking pid={} to hand over",
+                health.pid,
+                process.pid()
+            );
+            process.terminate();
+        }
+    }
+
+    /// The successor in standby of `service`, taken, if it is still alive.
+    fn successor_of(&mut self, service: Service) -> Option<ServiceProcess> {
+        let (mut process, _) = self.successor.take_if(|(p, _)| p.service() == service)?;
+        match process.try_wait() {
+            Ok(None) => Some(process),
+            Ok(Some(status)) => {
+                warn!("the successor of {service} ended in standby ({status})");
+                process.join_relays();
+                None
+            }
+            Err(e) => {
+                warn!("cannot watch the successor of {service}: {e}");
+                None
+            }
+        }
     }
 
     fn log_reports(&mut self) {
@@ -271,6 +342,12 @@ where
     fn stop_all(&mut self) -> Result<(), OrchestratorError> {
         let timeout = Duration::from_millis(self.config.shutdown_timeout_ms);
         let mut unclean = Vec::new();
+        if let Some((successor, _)) = self.successor.take() {
+            successor.terminate();
+            if let Err(e) = successor.stop(timeout) {
+                warn!("cannot stop the successor in standby: {e}");
+            }
+        }
         for slot in self.processes.iter_mut().rev() {
             let Some(process) = slot.take() else {
                 continue;

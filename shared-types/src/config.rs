@@ -127,6 +127,9 @@ pub struct FieldbusConfig {
     pub telegram_length_rob_to_plc: u16,
     /// How long to wait for the interpreter's answer before dropping a request.
     pub reply_timeout_ms: u64,
+    /// How long the gateway holds the PLC over while no interpreter process listens (one is
+    /// being replaced): it answers with the last reply and a live lifesign, no new ACK.
+    pub holdover_ms: u64,
 }
 
 /// `[interpreter]`.
@@ -468,6 +471,7 @@ impl MainConfig {
             1,
             1000,
         )?;
+        c.range("fieldbus.holdover_ms", self.fieldbus.holdover_ms, 0, 5000)?;
         c.range(
             "interpreter.lifesign_timeout_ms",
             self.interpreter.lifesign_timeout_ms,

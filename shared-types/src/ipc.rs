@@ -88,9 +88,33 @@ pub struct RobotTelegram {
     /// The `counter` of the PLC telegram this answers.
     pub counter: u64,
     pub connection: u32,
-    pub reserved: u16,
+    /// [`RobotTelegram::HANDOVER`], or 0 for an answer.
+    pub flags: u16,
     pub len: u16,
     pub bytes: [u8; TELEGRAM_CAPACITY],
+}
+
+impl RobotTelegram {
+    /// Flag of a sample that answers nothing: the interpreter stops and hands its SRCI
+    /// session to the next interpreter process; the fieldbus holds the PLC over until that
+    /// one answers. `counter` is the last telegram answered.
+    pub const HANDOVER: u16 = 1;
+
+    /// An answer to PLC telegram `counter` (no bytes yet).
+    pub fn answer(counter: u64, connection: u32) -> Self {
+        Self {
+            counter,
+            connection,
+            flags: 0,
+            len: 0,
+            bytes: [0; TELEGRAM_CAPACITY],
+        }
+    }
+
+    /// Whether this is the handover notice, not an answer.
+    pub fn is_handover(&self) -> bool {
+        self.flags & Self::HANDOVER != 0
+    }
 }
 
 /// Kind of a [`MotionCommand`].
@@ -141,7 +165,7 @@ impl MotionCommandKind {
 /// `motion/command`). The planner acknowledges `seq` in [`MotionStatus::acked_seq`]; the
 /// interpreter re-sends until then, so a command is never lost.
 #[repr(C)]
-#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, ZeroCopySend, serde::Serialize, serde::Deserialize)]
 #[type_name("rc::MotionCommand")]
 pub struct MotionCommand {
     /// Strictly increasing per interpreter instance, starting at 1.
@@ -450,7 +474,7 @@ impl ServoFeedback {
 
 /// interpreter → servo: requested power state (topic `servo/control`); latest value wins.
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend, serde::Serialize, serde::Deserialize)]
 #[type_name("rc::ServoControl")]
 pub struct ServoControl {
     pub seq: u64,

@@ -16,6 +16,11 @@ use std::time::{Duration, Instant};
 
 use sd_notify::NotifyState;
 
+/// Environment variable the orchestrator sets (to `standby`) on the successor of a service
+/// that hands its state over (the interpreter): the process starts, beats, and waits for
+/// its predecessor's state before it serves.
+pub const HANDOVER_ENV: &str = "RC_HANDOVER";
+
 /// Cycles of the process's service loop. One per process, as the systemd watchdog it feeds
 /// supervises the process; a global lets each loop beat without passing a handle through
 /// every service's `run`.

@@ -75,8 +75,9 @@ impl TelegramBridge {
         Ok(())
     }
 
-    /// Waits up to `timeout` for the answer to request `counter`. Answers to earlier
-    /// requests that came too late are discarded on the way.
+    /// Waits up to `timeout` for the answer to request `counter`, or the interpreter's
+    /// handover notice. Answers to earlier requests that came too late are discarded on the
+    /// way.
     pub(crate) fn await_reply(
         &self,
         counter: u64,
@@ -87,7 +88,7 @@ impl TelegramBridge {
         loop {
             // The interpreter answers in order, so the newest answer is ours or an older one.
             if let Some(reply) = receive_latest(&self.r2p)?
-                && reply.counter == counter
+                && (reply.counter == counter || reply.is_handover())
             {
                 return Ok(Some(reply));
             }

@@ -8,6 +8,7 @@
 
 pub mod assembler;
 mod bridge;
+pub mod holdover;
 mod tcp;
 
 use std::io;
@@ -23,6 +24,11 @@ use shared_types::time::monotonic_ns;
 
 use assembler::{TelegramAssembler, TelegramLengthError};
 use bridge::TelegramBridge;
+use holdover::HoldOver;
+
+/// During a hold-over, how long a request waits for the next interpreter before the
+/// hold-over answers it.
+const HOLDOVER_WAIT: Duration = Duration::from_millis(5);
 use shared_types::throttle::WarnThrottle;
 use tcp::{Activity, Disconnect, Ended, TcpLink};
 
@@ -58,6 +64,7 @@ pub struct Gateway {
     reply_timeout: Duration,
     reply_length: usize,
     late_replies: WarnThrottle,
+    holdover: HoldOver,
     // Declared last: the ports above are dropped before their node.
     _bus: Bus,
 }
@@ -87,6 +94,7 @@ impl Gateway {
             reply_timeout: Duration::from_millis(fb.reply_timeout_ms),
             reply_length,
             late_replies: WarnThrottle::new(LATE_REPLY_LOG_INTERVAL_NS),
+            holdover: HoldOver::new(fb.holdover_ms),
             _bus: bus,
         })
     }
@@ -117,6 +125,7 @@ impl Gateway {
                     peer,
                     replaced,
                 } => {
+                    self.holdover.forget();
                     if let Some(old) = replaced {
                         tracing::info!(connection = old, "fieldbus client replaced by a new one");
                         self.bridge.link_event(old, LinkEvent::Disconnected)?;
@@ -124,7 +133,10 @@ impl Gateway {
                     tracing::info!(connection, %peer, "fieldbus client connected");
                     self.bridge.link_event(connection, LinkEvent::Connected)?;
                 }
-                Activity::Disconnected(ended) => self.report_ended(ended)?,
+                Activity::Disconnected(ended) => {
+                    self.holdover.forget();
+                    self.report_ended(ended)?
+                }
                 Activity::Telegram => {
                     let received_ns = monotonic_ns();
                     self.exchange(shutdown)?;
@@ -141,27 +153,50 @@ impl Gateway {
     }
 
     /// One lockstep cycle: the complete request to the interpreter, its answer to the client.
+    /// While the interpreter process is being replaced (it said so), the client is held over.
     fn exchange(&mut self, shutdown: &AtomicBool) -> Result<(), FieldbusError> {
         let received_ns = monotonic_ns();
         let Some((connection, telegram)) = self.link.take_telegram() else {
             return Ok(());
         };
+        // Forwarded during a hold-over too: the next interpreter takes it once it listens.
         let counter = self.bridge.forward(connection, telegram, received_ns)?;
-        match self
-            .bridge
-            .await_reply(counter, self.reply_timeout, shutdown)?
-        {
+        let holding = self.holdover.can_answer(received_ns);
+        let timeout = if holding {
+            HOLDOVER_WAIT.min(self.reply_timeout)
+        } else {
+            self.reply_timeout
+        };
+        match self.bridge.await_reply(counter, timeout, shutdown)? {
+            Some(notice) if notice.is_handover() => {
+                tracing::info!(
+                    connection,
+                    "the interpreter hands its session over: holding the PLC over"
+                );
+                self.holdover.begin(monotonic_ns());
+                self.hold_over(connection)?;
+            }
             Some(reply) => {
-                if let Err(ended) = self
-                    .link
-                    .reply(connection, &reply.bytes[..self.reply_length])
-                {
+                if self.holdover.active() {
+                    tracing::info!(connection, "the interpreter answers again: hold-over ended");
+                }
+                let bytes = &reply.bytes[..self.reply_length];
+                self.holdover.remember(bytes);
+                if let Err(ended) = self.link.reply(connection, bytes) {
                     self.report_ended(ended)?;
                 }
             }
             // Cut short by shutdown: not the interpreter's fault, nothing to report.
             None if shutdown.load(Ordering::Relaxed) => {}
+            None if self.holdover.can_answer(monotonic_ns()) => self.hold_over(connection)?,
             None => {
+                if self.holdover.active() {
+                    tracing::warn!(
+                        connection,
+                        "hold-over over: no interpreter took the session"
+                    );
+                    self.holdover.forget();
+                }
                 if let Some(suppressed) = self.late_replies.admit(monotonic_ns()) {
                     tracing::warn!(
                         counter,
@@ -172,6 +207,16 @@ impl Gateway {
                     );
                 }
             }
+        }
+        Ok(())
+    }
+
+    /// Answers the PLC in place of an interpreter being replaced (see [`holdover`]).
+    fn hold_over(&mut self, connection: u32) -> Result<(), FieldbusError> {
+        if let Some(reply) = self.holdover.answer()
+            && let Err(ended) = self.link.reply(connection, reply)
+        {
+            self.report_ended(ended)?;
         }
         Ok(())
     }

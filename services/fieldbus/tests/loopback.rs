@@ -134,7 +134,7 @@ fn fake_interpreter(
             let mut reply = RobotTelegram {
                 counter: t.counter,
                 connection: t.connection,
-                reserved: 0,
+                flags: 0,
                 len: LENGTH as u16,
                 bytes: [0; TELEGRAM_CAPACITY],
             };

@@ -31,7 +31,7 @@ pub enum FragmentOutcome {
 }
 
 /// One entry of the register.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 struct Entry {
     cmd_id: u16,
     live: bool,
@@ -41,11 +41,12 @@ struct Entry {
     handed_over: bool,
     /// Highest byte written + 1.
     len: usize,
+    #[serde(with = "crate::handover::fixed_bytes")]
     buffer: [u8; MESSAGE_CAPACITY],
 }
 
 /// The register with a fixed number of entries (LengthACR).
-#[derive(Debug)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Acr {
     entries: Vec<Entry>,
 }

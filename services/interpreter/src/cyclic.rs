@@ -25,7 +25,7 @@ const TOOL_FRAME_LEN: usize = 2;
 const MIN_SEQUENCE: usize = SEQUENCE_HEADER_LEN + FRAGMENT_HEADER_LEN + 4;
 
 /// The cyclic blocks of a session.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub struct CyclicLayout {
     pub cartesian: bool,
     pub joints: bool,

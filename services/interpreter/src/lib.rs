@@ -5,6 +5,7 @@
 pub mod acr;
 pub mod commands;
 pub mod cyclic;
+pub mod handover;
 pub mod messages;
 pub mod motion_link;
 pub mod responses;

@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 use shared_types::srci::message::severity;
 
 /// Who a message is about (ReadMessages MsgType).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[repr(u8)]
 pub enum MessageType {
     /// The robot interface (telegram level).
@@ -23,7 +23,8 @@ pub enum MessageType {
 pub const TEXT_CAPACITY: usize = 150;
 
 /// A message text of at most [`TEXT_CAPACITY`] bytes, stored inline (no allocation).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
+#[serde(into = "String", from = "String")]
 pub struct MessageText {
     bytes: [u8; TEXT_CAPACITY],
     len: u8,
@@ -51,8 +52,20 @@ impl MessageText {
     }
 }
 
+impl From<MessageText> for String {
+    fn from(t: MessageText) -> Self {
+        t.as_str().to_owned()
+    }
+}
+
+impl From<String> for MessageText {
+    fn from(s: String) -> Self {
+        MessageText::new(&s)
+    }
+}
+
 /// One logged message.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Message {
     /// 1..=255, never 0 (0 means "no message").
     pub id: u8,
@@ -73,7 +86,7 @@ impl Message {
 }
 
 /// The log: a bounded ring; when full, the oldest message goes.
-#[derive(Debug)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct MessageLog {
     entries: VecDeque<Message>,
     capacity: usize,
@@ -145,6 +158,12 @@ impl MessageLog {
     /// Errors and warnings raised since the last GroupReset.
     pub fn active_counts(&self) -> (u8, u8) {
         (self.active_errors, self.active_warnings)
+    }
+
+    /// Gives the log its full capacity again (after it was restored from a snapshot).
+    pub fn reserve_capacity(&mut self) {
+        self.entries
+            .reserve(self.capacity.saturating_sub(self.entries.len()));
     }
 
     /// GroupReset: deletes every message and clears the active counts.

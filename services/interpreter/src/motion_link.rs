@@ -21,7 +21,7 @@ pub struct JobUpdate {
 }
 
 /// A job in flight.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 struct Job {
     job: u32,
     cmd_id: u16,
@@ -42,7 +42,7 @@ pub enum PlannerEvent {
 }
 
 /// Commands to the planner and the jobs they started.
-#[derive(Debug)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct MotionLink {
     issuer: u64,
     next_seq: u64,
@@ -71,6 +71,15 @@ impl MotionLink {
             timeout_ms,
             silent_reported: false,
         }
+    }
+
+    /// Gives the pending commands and the jobs their start-up capacity again (after the
+    /// link was restored from a snapshot).
+    pub fn reserve_capacity(&mut self, job_capacity: usize) {
+        self.pending
+            .reserve(PENDING_CAPACITY.saturating_sub(self.pending.len()));
+        self.jobs
+            .reserve(job_capacity.saturating_sub(self.jobs.len()));
     }
 
     /// This interpreter instance.

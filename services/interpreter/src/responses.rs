@@ -10,18 +10,19 @@ use shared_types::srci::telegram::{FragmentAction, SequenceWriter};
 pub const RESPONSE_CAPACITY: usize = 256;
 
 /// One response message waiting to be sent.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 struct Pending {
     cmd_id: u16,
     state: u8,
     len: usize,
     /// Bytes already sent in earlier sequences.
     sent: usize,
+    #[serde(with = "crate::handover::fixed_bytes")]
     bytes: [u8; RESPONSE_CAPACITY],
 }
 
 /// Response queue with a fixed capacity allocated at start-up.
-#[derive(Debug)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct ResponseQueue {
     queue: VecDeque<Pending>,
     capacity: usize,
@@ -120,6 +121,12 @@ impl ResponseQueue {
     }
 
     /// Drops everything (interface reset).
+    /// Gives the queue its full capacity again (after it was restored from a snapshot).
+    pub fn reserve_capacity(&mut self) {
+        self.queue
+            .reserve(self.capacity.saturating_sub(self.queue.len()));
+    }
+
     pub fn clear(&mut self) {
         self.queue.clear();
     }

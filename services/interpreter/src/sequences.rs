@@ -13,7 +13,7 @@ use shared_types::ipc::AXES;
 pub const IN_POSITION_RAD: f64 = 1e-4;
 
 /// Where the primary sequence was left.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PrimaryPosition {
     /// Joints in rad.
     pub joints: [f64; AXES],
@@ -25,7 +25,7 @@ pub struct PrimaryPosition {
 }
 
 /// Which sequence takes new moves, and where the primary one was left.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Sequences {
     secondary_active: bool,
     primary_position: Option<PrimaryPosition>,

@@ -23,6 +23,7 @@ use shared_types::srci::telegram::{
 use crate::acr::{Acr, FragmentOutcome, MESSAGE_CAPACITY};
 use crate::commands::LiveCommand;
 use crate::cyclic::{CyclicLayout, CyclicPosition};
+use crate::handover::{self, Snapshot};
 use crate::messages::{MessageLog, MessageType};
 use crate::motion_link::{JobUpdate, MotionLink, PlannerEvent};
 use crate::responses::ResponseQueue;
@@ -118,8 +119,8 @@ impl Default for Effects {
 }
 
 /// Values fixed at INITIALIZE that every later telegram must repeat.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Session {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub(crate) struct Session {
     cyclic: CyclicLayout,
     length_plc_to_rob: u16,
     length_rob_to_plc: u16,
@@ -219,6 +220,88 @@ impl Server {
             suspended: false,
             settings,
         }
+    }
+
+    /// The state a successor process continues from (see [`crate::handover`]);
+    /// `last_counter` is the counter of the last PLC telegram answered.
+    pub fn snapshot(&self, instance: &str, now: Now, last_counter: u64) -> Snapshot {
+        Snapshot {
+            version: handover::VERSION,
+            instance: instance.to_owned(),
+            written_mono_ms: now.mono_ms,
+            last_counter,
+            telegram_state: self.telegram_state,
+            session: self.session,
+            robot_lifesign: self.robot_lifesign,
+            plc_lifesign: self.plc_lifesign,
+            lifesign_timeout_ms: self.lifesign_timeout_ms,
+            last_seq: self.last_seq,
+            reply_areas: [self.reply_areas[0].to_vec(), self.reply_areas[1].to_vec()],
+            invalid_frames: self.invalid_frames,
+            acr: self.acr.clone(),
+            responses: self.responses.clone(),
+            messages: self.messages.clone(),
+            live: self.live.clone(),
+            motion: self.motion.clone(),
+            servo_control: self.servo_control,
+            override_percent: self.override_percent,
+            error_pending: self.error_pending,
+            current_tool: self.user_data.current_tool(),
+            current_frame: self.user_data.current_frame(),
+            last_drive_fault: self.last_drive_fault,
+            last_planner_error: self.last_planner_error,
+            suspended: self.suspended,
+            server_log: self.server_log.clone(),
+            sync_request: self.sync_request,
+            sync_supervisor: self.sync_supervisor,
+            sequences: self.sequences,
+            supervision_requests: self.supervision_requests,
+            step_mode: self.step_mode,
+        }
+    }
+
+    /// Continues from a predecessor's snapshot. The PLC's lifesign is timed from `now`, as the
+    /// gap was the controller's, not the PLC's; storage gets its start-up capacity back, so
+    /// that the steady state still does not allocate.
+    pub fn restore(&mut self, s: Snapshot, now: Now) {
+        let acr_length = self.settings.acr_length;
+        self.telegram_state = s.telegram_state;
+        self.session = s.session;
+        self.robot_lifesign = s.robot_lifesign;
+        self.plc_lifesign = s.plc_lifesign;
+        self.lifesign_changed_ms = now.mono_ms;
+        self.lifesign_timeout_ms = s.lifesign_timeout_ms;
+        self.last_seq = s.last_seq;
+        for (area, saved) in self.reply_areas.iter_mut().zip(&s.reply_areas) {
+            let n = saved.len().min(area.len());
+            area[..n].copy_from_slice(&saved[..n]);
+        }
+        self.invalid_frames = s.invalid_frames;
+        self.acr = s.acr;
+        self.responses = s.responses;
+        self.responses.reserve_capacity();
+        self.messages = s.messages;
+        self.messages.reserve_capacity();
+        self.live = s.live;
+        self.live
+            .reserve(acr_length.saturating_sub(self.live.len()));
+        self.motion = s.motion;
+        self.motion.reserve_capacity(acr_length + 8);
+        self.servo_control = s.servo_control;
+        self.override_percent = s.override_percent;
+        self.error_pending = s.error_pending;
+        let _ = self.user_data.select_tool(s.current_tool);
+        let _ = self.user_data.select_frame(s.current_frame);
+        self.last_drive_fault = s.last_drive_fault;
+        self.last_planner_error = s.last_planner_error;
+        self.suspended = s.suspended;
+        self.server_log = s.server_log;
+        self.server_log.reserve_capacity();
+        self.sync_request = s.sync_request;
+        self.sync_supervisor = s.sync_supervisor;
+        self.sequences = s.sequences;
+        self.supervision_requests = s.supervision_requests;
+        self.step_mode = s.step_mode;
     }
 
     /// The current TelegramState.

@@ -24,7 +24,7 @@ pub const JOURNAL_LINES: usize = 1024;
 pub const CONTEXT_FILTERS: usize = 10;
 
 /// One journal line.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct LogLine {
     /// UNIX time in ms.
     pub unix_ms: u64,
@@ -117,14 +117,14 @@ pub struct LogPage<'a> {
     pub line: Option<&'a LogLine>,
 }
 
-#[derive(Debug)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 struct StoredLog {
     id: u16,
     lines: Vec<LogLine>,
 }
 
 /// The journal and the stored logs.
-#[derive(Debug)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct ServerLog {
     journal: VecDeque<LogLine>,
     capacity: usize,
@@ -148,6 +148,17 @@ impl ServerLog {
                 .collect(),
             next_id: 1,
             level: severity::INFO,
+        }
+    }
+
+    /// Gives the journal and the stored logs their full capacity again (after they were
+    /// restored from a snapshot).
+    pub fn reserve_capacity(&mut self) {
+        let capacity = self.capacity;
+        self.journal
+            .reserve(capacity.saturating_sub(self.journal.len()));
+        for log in &mut self.stored {
+            log.lines.reserve(capacity.saturating_sub(log.lines.len()));
         }
     }
 

@@ -560,12 +560,9 @@ fn read_messages_delivers_and_takes_acknowledgements() {
     );
 }
 
-#[test]
-fn steady_state_telegrams_do_not_allocate() {
-    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
-    let mut rm = request(t::read_messages::TYPE, 2, t::read_messages::request::LEN);
-    PayloadWriter::new(&mut rm).set_u8(t::read_messages::request::MESSAGE_LEVEL, 20);
-    plc.command(&mut server, 1, NEW, &rm);
+/// Rounds of a steady session: a move run to DONE, a position read and a refused command
+/// each; returns the allocations the server made (ReadMessages must be live as `1`).
+fn steady_rounds(server: &mut Server, plc: &mut Plc, fx: &mut Effects, events: &mut u64) -> u64 {
     let mut mv = request(
         t::move_axes_absolute::TYPE,
         0,
@@ -573,17 +570,16 @@ fn steady_state_telegrams_do_not_allocate() {
     );
     PayloadWriter::new(&mut mv).set_u16(t::move_axes_absolute::request::DECELERATION_RATE, 0xFFFF);
     plc.server_allocations = 0;
-    let mut events = 0;
     for round in 0..50u16 {
-        plc.command(&mut server, 2, NEW, &mv);
+        plc.command(server, 2, NEW, &mv);
         plc.command(
-            &mut server,
+            server,
             3,
             NEW,
             &request(t::read_actual_position::TYPE, 2, 12),
         );
         plc.command(
-            &mut server,
+            server,
             4,
             NEW,
             &request(
@@ -592,25 +588,80 @@ fn steady_state_telegrams_do_not_allocate() {
                 t::move_circular_absolute::request::LEN,
             ),
         );
-        let job = plc.motion.last().map_or(0, |c| c.job);
-        events += 1;
-        let s = status(5, &[(events, job, state::DONE, 0)]);
+        // The newest move (unacknowledged older commands are re-sent after it).
+        let job = plc
+            .motion
+            .iter()
+            .filter(|c| c.kind == MotionCommandKind::MoveAxes as u8)
+            .map(|c| c.job)
+            .max()
+            .unwrap_or(0);
+        *events += 1;
+        let s = status(5, &[(*events, job, state::DONE, 0)]);
         let ((), a) = alloc_counter::count(|| {
-            server.on_motion_status(plc.now(), &s, &mut fx);
-            server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+            server.on_motion_status(plc.now(), &s, fx);
+            server.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), fx);
         });
         plc.server_allocations += a;
         fx.clear();
-        plc.idle(&mut server);
+        plc.idle(server);
         assert_eq!(
             plc.last_response(2).map(|h| h.state),
             Some(state::DONE),
             "round {round}"
         );
     }
-    assert_eq!(plc.server_allocations, 0, "allocations in the steady state");
+    plc.server_allocations
+}
+
+#[test]
+fn steady_state_telegrams_do_not_allocate() {
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    let mut rm = request(t::read_messages::TYPE, 2, t::read_messages::request::LEN);
+    PayloadWriter::new(&mut rm).set_u8(t::read_messages::request::MESSAGE_LEVEL, 20);
+    plc.command(&mut server, 1, NEW, &rm);
+    let mut events = 0;
+    let allocations = steady_rounds(&mut server, &mut plc, &mut fx, &mut events);
+    assert_eq!(allocations, 0, "allocations in the steady state");
     let (_, probe) = alloc_counter::count(|| std::hint::black_box(vec![1u8; 8]));
     assert_eq!(probe, 1, "the counter sees allocations");
+}
+
+#[test]
+fn a_successor_process_continues_the_session_from_the_snapshot() {
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    let mut rm = request(t::read_messages::TYPE, 2, t::read_messages::request::LEN);
+    PayloadWriter::new(&mut rm).set_u8(t::read_messages::request::MESSAGE_LEVEL, 20);
+    plc.command(&mut server, 1, NEW, &rm);
+    let job = running_move(&mut server, &mut plc, &mut fx, 5);
+    let issuer = plc.motion.last().unwrap().issuer;
+
+    // Through the file format, into a new process's server.
+    let bytes = serde_json::to_vec(&server.snapshot("inst", plc.now(), 41)).unwrap();
+    let snapshot: crate::handover::Snapshot = serde_json::from_slice(&bytes).unwrap();
+    assert_eq!(snapshot.last_counter, 41);
+    let mut successor = Server::new(settings(256), 1234, user_data());
+    successor.restore(snapshot, plc.now());
+    assert_eq!(successor.telegram_state(), ts::INITIALIZED);
+    successor.on_servo_feedback(plc.now(), &feedback(DriveState::Holding), &mut fx);
+    // The running move's DONE reaches the PLC through the successor.
+    let events = [
+        (1, job, state::BUFFERED, 0),
+        (2, job, state::ACTIVE, 0),
+        (3, job, state::DONE, 0),
+    ];
+    successor.on_motion_status(plc.now(), &status(5, &events), &mut fx);
+    plc.idle(&mut successor);
+    assert_eq!(plc.last_response(5).unwrap().state, state::DONE);
+    // New commands go to the planner as the same issuer, numbered on.
+    plc.motion.clear();
+    let mut events = 3;
+    let allocations = steady_rounds(&mut successor, &mut plc, &mut fx, &mut events);
+    assert!(plc.motion.iter().all(|c| c.issuer == issuer));
+    assert_eq!(
+        allocations, 0,
+        "the successor's steady state does not allocate"
+    );
 }
 
 #[test]

@@ -1,19 +1,23 @@
 //! The interpreter process: answers every PLC telegram through the [`Server`] core and
 //! carries its effects to the planner and the drives.
 
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use shared_types::bus::{self, Bus, BusError};
+use iceoryx2::port::subscriber::Subscriber;
+use shared_types::bus::{self, Bus, BusError, Ipc};
 use shared_types::config::Config;
 use shared_types::health::{
     HealthReporter, Service, SupervisionRequest, SupervisionStatus, topics as health_topics,
 };
 use shared_types::ipc::{
     LinkEvent, MotionCommand, MotionStatus, PlcTelegram, RobotTelegram, ServoControl,
-    ServoFeedback, TELEGRAM_CAPACITY, topics,
+    ServoFeedback, topics,
 };
+use shared_types::supervision::HANDOVER_ENV;
 
+use crate::handover::{self, HandoverError, Snapshot};
 use crate::server::{Effects, Now, Server, Settings, write_text};
 use crate::user_data::{Saver, UserData};
 
@@ -33,6 +37,10 @@ const TELEGRAMS_PER_PASS: usize = 16;
 /// The drive power request is re-published this often, so a restarted servo process (which
 /// sees the topic's history only once the publisher sends again) gets it back.
 const CONTROL_REPUBLISH_MS: u64 = 100;
+/// How often a successor in standby looks for its predecessor's snapshot.
+const STANDBY_POLL: Duration = Duration::from_millis(1);
+/// How long a successor waits in standby before it starts a new session.
+const STANDBY_TIMEOUT: Duration = Duration::from_secs(10);
 
 fn now() -> Now {
     Now {
@@ -75,18 +83,53 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
         let text = write_text(&mut text, format_args!("{w}"));
         server.raise_warning(now(), text);
     }
-    let mut fx = Effects::new();
-    let mut answer = RobotTelegram {
-        counter: 0,
-        connection: 0,
-        reserved: 0,
-        len: 0,
-        bytes: [0; TELEGRAM_CAPACITY],
+    // The counter of the last PLC telegram answered, by this process or its predecessor.
+    let mut last_counter = 0;
+    let standby = std::env::var(HANDOVER_ENV).is_ok_and(|v| v == "standby");
+    let taken = if standby {
+        let ports = StandbyPorts {
+            telegrams: &telegrams,
+            status: &status,
+            feedback: &feedback,
+        };
+        match await_handover(
+            &data_dir,
+            &config.main.instance,
+            &ports,
+            &mut health,
+            shutdown,
+        )? {
+            Some(taken) => taken,
+            None => return Ok(()),
+        }
+    } else {
+        handover::take(&data_dir, &config.main.instance, now().mono_ms)
     };
+    match taken {
+        Ok(Some(snapshot)) => {
+            last_counter = snapshot.last_counter;
+            tracing::info!(
+                telegram_state = snapshot.telegram_state,
+                commands = snapshot.live.len(),
+                "continuing the SRCI session of the previous interpreter process"
+            );
+            server.restore(snapshot, now());
+        }
+        Ok(None) => {}
+        Err(e) => {
+            tracing::warn!(%e, "starting a new SRCI session");
+            let mut text = [0u8; 150];
+            let text = write_text(&mut text, format_args!("{e}"));
+            server.raise_warning(now(), text);
+        }
+    }
+    let mut fx = Effects::new();
+    let mut answer = RobotTelegram::answer(0, 0);
     tracing::info!(
         instance = %config.main.instance,
         robot = %config.robot.name,
-        "interpreter ready: TelegramState 254 READY_FOR_INITIALIZATION"
+        telegram_state = server.telegram_state(),
+        "interpreter ready"
     );
     let mut last_state = server.telegram_state();
     let mut control_published_ms = 0;
@@ -117,10 +160,13 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
             let request = *sample.payload();
             drop(sample);
             match LinkEvent::from_wire(request.event) {
+                // Answered by the predecessor before it handed over.
+                LinkEvent::Telegram if request.counter <= last_counter => {}
                 LinkEvent::Telegram => {
                     health.record(request.received_ns);
                     let n = server.on_telegram(t, request.telegram(), &mut answer.bytes, &mut fx);
                     answer.counter = request.counter;
+                    last_counter = request.counter;
                     answer.connection = request.connection;
                     // At most TELEGRAM_CAPACITY (256).
                     answer.len = n as u16;
@@ -166,6 +212,97 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), InterpreterErro
             last_state = state;
         }
     }
+    if hand_over(&bus, &server, config, &data_dir, last_counter) {
+        // The fieldbus holds the PLC over until the next interpreter process answers.
+        let mut notice = RobotTelegram::answer(last_counter, answer.connection);
+        notice.flags = RobotTelegram::HANDOVER;
+        bus::publish(&answers, notice)?;
+        let _ = answer_wakeup.notify();
+    }
     tracing::info!("interpreter stopped");
     Ok(())
+}
+
+/// The inputs a successor in standby keeps drained, so that it starts from fresh samples.
+struct StandbyPorts<'a> {
+    telegrams: &'a Subscriber<Ipc, PlcTelegram, ()>,
+    status: &'a Subscriber<Ipc, MotionStatus, ()>,
+    feedback: &'a Subscriber<Ipc, ServoFeedback, ()>,
+}
+
+/// The successor of a handing-over interpreter: beats (its beat tells the orchestrator to
+/// stop the predecessor) and drains its inputs, which the predecessor still serves, until
+/// the predecessor's snapshot appears. `None` on shutdown; a new session after
+/// [`STANDBY_TIMEOUT`] without a snapshot.
+fn await_handover(
+    data_dir: &Path,
+    instance: &str,
+    ports: &StandbyPorts<'_>,
+    health: &mut HealthReporter,
+    shutdown: &AtomicBool,
+) -> Result<Option<Result<Option<Snapshot>, HandoverError>>, InterpreterError> {
+    tracing::info!("in standby: waiting for the running interpreter to hand over");
+    let start = now().mono_ms;
+    while !shutdown.load(Ordering::Relaxed) {
+        shared_types::supervision::beat();
+        health.beat()?;
+        while ports
+            .telegrams
+            .receive()
+            .map_err(|e| BusError {
+                action: "receive on",
+                service: topics::P2R.into(),
+                detail: format!("{e:?}"),
+            })?
+            .is_some()
+        {}
+        bus::receive_latest(ports.status)?;
+        bus::receive_latest(ports.feedback)?;
+        let t = now().mono_ms;
+        match handover::take(data_dir, instance, t) {
+            Ok(None) if t.saturating_sub(start) < STANDBY_TIMEOUT.as_millis() as u64 => {
+                std::thread::sleep(STANDBY_POLL);
+            }
+            Ok(None) => {
+                tracing::warn!("no interpreter handed over: starting a new SRCI session");
+                return Ok(Some(Ok(None)));
+            }
+            taken => return Ok(Some(taken)),
+        }
+    }
+    Ok(None)
+}
+
+/// On a stop while a fieldbus still carries the PLC link (a restart of this service alone),
+/// leaves the session to the next interpreter process; when the whole controller stops, the
+/// fieldbus has gone first and there is no session to continue. Returns whether it did.
+fn hand_over(
+    bus: &Bus,
+    server: &Server,
+    config: &Config,
+    data_dir: &Path,
+    last_counter: u64,
+) -> bool {
+    let fieldbus_listening = bus
+        .subscriber_count::<RobotTelegram>(topics::R2P)
+        .is_ok_and(|n| n > 0);
+    if !fieldbus_listening {
+        return false;
+    }
+    let t = now();
+    let snapshot = server.snapshot(&config.main.instance, t, last_counter);
+    match handover::write(data_dir, &snapshot) {
+        Ok(()) => {
+            tracing::info!(
+                telegram_state = server.telegram_state(),
+                last_counter,
+                "SRCI session handed over to the next interpreter process"
+            );
+            true
+        }
+        Err(e) => {
+            tracing::error!(%e, "the SRCI session cannot be handed over");
+            false
+        }
+    }
 }

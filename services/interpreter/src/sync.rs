@@ -16,7 +16,7 @@
 use crate::user_data::{DataSet, UserData};
 
 /// What the controller does while the interface is not synchronized.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum SyncReaction {
     /// Nothing.
     #[default]
@@ -43,7 +43,7 @@ impl SyncReaction {
 }
 
 /// The synchronisation the PLC asked for in its last ExchangeConfiguration.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct SyncRequest {
     /// EnableSync per data set, in the order of [`DataSet::ALL`].
     pub enabled: [bool; 6],
@@ -80,7 +80,7 @@ pub enum SyncAction {
 }
 
 /// Tracks how long the interface has not been synchronized and when to react.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 pub struct SyncSupervisor {
     /// Since when (ms) the interface is not synchronized.
     unsynchronized_since: Option<u64>,

@@ -55,7 +55,7 @@ pub const IMPLEMENTED: [u16; 30] = [
 ];
 
 /// A command that stays in the register after its first response.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct LiveCommand {
     pub cmd_id: u16,
     pub command_type: u16,
@@ -65,7 +65,7 @@ pub struct LiveCommand {
 }
 
 /// What a live command is waiting for.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub enum LiveKind {
     /// ReadMessages: `shown` is the MsgID in the last response, with the counts sent then;
     /// `enable_seen` if the PLC sets the (library) Enable flag, so clearing it disables.
@@ -114,7 +114,7 @@ pub enum LiveKind {
 /// The end of a straight-line move: the TCP target position in the world (m) and the tool
 /// (TCP in the flange frame, m and rad), so that the distance left can be measured from the
 /// flange pose the planner reports.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LineTarget {
     pub position: [f64; 3],
     pub tool: [f64; 6],

@@ -35,7 +35,7 @@ const DATA_IN_SYNC: [Field; 6] = [
 ];
 
 /// What a live ExchangeConfiguration last reported of the values that change.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct ConfigurationReport {
     in_sync: [bool; 6],
     work_area_in_sync: bool,
