@@ -1,5 +1,12 @@
 //! The per-tick motion state machine: takes the servo feedback and new motion commands,
-//! keeps the primary sequence, and produces the setpoint window and the planner status.
+//! keeps the primary and the secondary sequence, and produces the setpoint window and the
+//! planner status.
+//!
+//! Group commands act on the sequences their command names: GroupInterrupt holds them (the
+//! running move of a held sequence brakes on its path and waits at the front of it),
+//! GroupContinue releases them, GroupStop and Halt discard them, and an aborting move
+//! aborts the moves of its own sequence only. Drives switched off under a move hold it like
+//! a GroupInterrupt (0x6F02); a drive fault or a lost servo ends every move with an error.
 //!
 //! Timeline: the feedback of servo tick `k` arrives, the executor commits the point for tick
 //! `k + 1` and looks ahead to `k + SETPOINT_WINDOW`. When wake-ups were missed, the servo
@@ -8,20 +15,21 @@
 
 use shared_types::config::Config;
 use shared_types::ipc::{
-    AXES, DriveState, JointPoint, MotionCommand, MotionCommandKind, MotionStatus, SETPOINT_WINDOW,
-    ServoFeedback, ServoSetpoint,
+    AXES, DriveState, JointPoint, MotionCommand, MotionCommandKind, MotionSequence, MotionStatus,
+    SETPOINT_WINDOW, ServoFeedback, ServoSetpoint,
 };
 use shared_types::pose;
 use shared_types::srci::message::{code, state};
 
 use crate::events::EventLog;
-use crate::joint_move::{self, JointMove};
+use crate::joint_move::{self, JointMove, move_limits};
 use crate::kinematics::selection::{CartesianTarget, ConfigModes, TurnMode, select};
 use crate::kinematics::turns::TurnNumbers;
 use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
 use crate::linear_move::{self, Arm, LinearMove, LinearPlan, TcpLimits};
 use crate::motion::{Dynamics, Motion, Phase};
-use crate::queue::{MoveQueue, QueuedMove};
+use crate::queue::QueuedMove;
+use crate::sequences::{Cursor, Sequence, Sequences, overlap};
 
 /// Joint speed (rad/s) below which the servo feedback counts as standing still.
 const REST_VELOCITY: f64 = 1e-3;
@@ -41,18 +49,20 @@ pub struct Executor {
     /// Configured interpolation period, s.
     period_s: f64,
     motion: Motion,
-    queue: MoveQueue,
+    sequences: Sequences,
     /// Whether the executor commands the servo (it publishes setpoints only then).
     synced: bool,
     /// Servo tick of `motion.point`.
     tick: u64,
     servo_instance: u64,
     last_fault: u16,
+    /// The servo's count of ticks without a setpoint, as of the last step.
+    last_misses: u64,
     override_target: f64,
-    /// A GroupStop waiting for the arm to stand still.
-    pending_stop: Option<u32>,
-    /// A GroupInterrupt waiting for the arm to stand still.
-    pending_interrupt: Option<u32>,
+    /// A GroupStop waiting for the moves of the sequences it acts on to stand still.
+    pending_stop: Option<(u32, MotionSequence)>,
+    /// A GroupInterrupt waiting for the moves of the sequences it acts on to stand still.
+    pending_interrupt: Option<(u32, MotionSequence)>,
     /// The move taken from the queue last (the running one, if any).
     running: Option<QueuedMove>,
     /// `(issuer, seq)` of the newest accepted command.
@@ -79,18 +89,19 @@ impl Executor {
             geometry: ArmGeometry::new(&config.robot.kinematics).ok(),
             period_s: config.main.servo.period_us as f64 * 1e-6,
             motion: Motion::at_rest([0.0; AXES], override_fraction),
-            queue: MoveQueue::with_capacity(queue_length),
+            sequences: Sequences::with_capacity(queue_length),
             synced: false,
             tick: 0,
             servo_instance: 0,
             last_fault: 0,
+            last_misses: 0,
             override_target: override_fraction,
             pending_stop: None,
             pending_interrupt: None,
             running: None,
             accepted: None,
-            // Bursts end at most the whole queue plus a few commands per move.
-            events: EventLog::with_capacity(4 * queue_length + EVENT_SLACK),
+            // Bursts end at most both sequences plus a few commands per move.
+            events: EventLog::with_capacity(8 * queue_length + EVENT_SLACK),
             status,
         }
     }
@@ -127,6 +138,7 @@ impl Executor {
         self.watch_drives(feedback, drive);
         self.follow_servo_clock(feedback, dt);
         self.track_arm(feedback, drive);
+        self.last_misses = feedback.setpoint_misses;
         for command in commands {
             self.accept(command, drive);
         }
@@ -174,7 +186,8 @@ impl Executor {
         }
     }
 
-    /// Ends the moves in flight on a new drive fault or when the drives are not enabled.
+    /// Ends the moves in flight on a new drive fault, holds them when the drives are not
+    /// enabled.
     fn watch_drives(&mut self, feedback: &ServoFeedback, drive: DriveState) {
         let fault = feedback.fault_code;
         if fault != 0 && fault != self.last_fault {
@@ -185,7 +198,7 @@ impl Executor {
         }
         self.last_fault = fault;
         if !drive.is_enabled() {
-            self.end_all(state::ERROR, code::INTERRUPTED_NOT_ENABLED);
+            self.hold_for_disabled_drives();
         }
     }
 
@@ -193,14 +206,23 @@ impl Executor {
     /// stands still.
     fn track_arm(&mut self, feedback: &ServoFeedback, drive: DriveState) {
         if drive == DriveState::Stopping && self.synced {
-            // The servo brakes by itself: our setpoints did not reach it in time.
-            self.lose_sync();
+            if feedback.setpoint_misses == self.last_misses {
+                // The servo brakes with setpoints at hand: the drives are being switched off.
+                self.hold_for_disabled_drives();
+                self.synced = false;
+            } else {
+                // The servo brakes by itself: our setpoints did not reach it in time.
+                self.lose_sync();
+            }
         }
         if !drive.is_enabled() || !self.synced {
             // Track the arm so that taking over (or enabling) never jumps.
             let at_rest = feedback.q.iter().all(|q| q.is_finite())
                 && feedback.qd.iter().all(|v| v.abs() <= REST_VELOCITY);
+            // The held sequences stay held.
+            let holds = self.motion.holds;
             self.motion = Motion::at_rest(feedback.q, self.override_target);
+            self.motion.holds = holds;
             self.tick = feedback.tick;
             self.synced = at_rest && drive != DriveState::Stopping;
         }
@@ -217,26 +239,21 @@ impl Executor {
         self.status.acked_issuer = command.issuer;
         self.status.acked_seq = command.seq;
         let job = command.job;
+        let scope = MotionSequence::from_wire(command.sequence);
         match MotionCommandKind::from_wire(command.kind) {
             Some(MotionCommandKind::MoveAxes | MotionCommandKind::MoveLinear) => {
                 self.accept_move(command, drive)
             }
             Some(MotionCommandKind::MoveDirect) => self.accept_move_direct(command, drive),
             Some(MotionCommandKind::Stop) => {
-                self.stop(code::ABORTED_BY_GROUP_STOP);
-                if let Some(previous) = self.pending_stop.replace(job) {
+                self.stop(scope, code::ABORTED_BY_GROUP_STOP);
+                if let Some((previous, _)) = self.pending_stop.replace((job, scope)) {
                     self.report(previous, state::ABORTED, code::ABORTED_BY_GROUP_STOP);
                 }
             }
-            Some(MotionCommandKind::Halt) => self.stop(code::ABORTED_BY_GROUP_STOP),
-            Some(MotionCommandKind::Interrupt) => self.interrupt(job),
-            Some(MotionCommandKind::Continue) => {
-                self.motion.sequence_paused = false;
-                if let Some(previous) = self.pending_interrupt.take() {
-                    self.report(previous, state::ABORTED, code::ABORTED_BY_MOTION_COMMAND);
-                }
-                self.report(job, state::DONE, 0);
-            }
+            Some(MotionCommandKind::Halt) => self.stop(scope, code::ABORTED_BY_GROUP_STOP),
+            Some(MotionCommandKind::Interrupt) => self.interrupt(job, scope),
+            Some(MotionCommandKind::Continue) => self.resume(job, scope),
             Some(MotionCommandKind::Override) => {
                 let fraction = command.override_fraction;
                 if (0.0..=1.0).contains(&fraction) {
@@ -260,11 +277,13 @@ impl Executor {
     /// if it starts there (see [`prepare_next_move`](Self::prepare_next_move)).
     fn accept_move(&mut self, command: &MotionCommand, drive: DriveState) {
         let job = command.job;
+        let sequence = Sequence::of_move(command);
         let linear = command.kind == MotionCommandKind::MoveLinear as u8;
+        let limits = move_limits(&self.dynamics.limits, command);
         let valid = if linear {
             linear_move::validate(command).map_err(|e| e.code())
         } else {
-            joint_move::validate(command, &self.dynamics.limits).map_err(|e| e.code())
+            joint_move::validate(command, &limits).map_err(|e| e.code())
         };
         if let Err(code) = valid {
             return self.report(job, state::ERROR, code);
@@ -275,11 +294,7 @@ impl Executor {
         if !drive.is_enabled() {
             return self.report(job, state::ERROR, code::ROBOT_DISABLED);
         }
-        let start = if command.aborting {
-            self.motion.point.q
-        } else {
-            self.sequence_end()
-        };
+        let start = self.start_of(command);
         let planned = if linear {
             self.plan_linear(start, command).map(|plan| {
                 let mut command = *command;
@@ -291,7 +306,7 @@ impl Executor {
             })
         } else {
             let reserve = self.dynamics.override_reserve;
-            JointMove::plan(start, command, &self.dynamics.limits, reserve)
+            JointMove::plan(start, command, &limits, reserve)
                 .map(|_| QueuedMove::joint(*command))
                 .map_err(|e| e.code())
         };
@@ -300,9 +315,9 @@ impl Executor {
             Err(code) => return self.report(job, state::ERROR, code),
         };
         if command.aborting {
-            self.stop(code::ABORTED_BY_MOTION_COMMAND);
+            self.stop(sequence.scope(), code::ABORTED_BY_MOTION_COMMAND);
         }
-        match self.queue.push(queued) {
+        match self.sequences.queue_mut(sequence).push(queued) {
             Ok(()) => self.report(job, state::BUFFERED, 0),
             Err(_) => self.report(job, state::ERROR, code::INTERNAL_ERROR),
         }
@@ -311,25 +326,28 @@ impl Executor {
     /// The linear move of `command` from `start`, or the SRCI code why there is none.
     fn plan_linear(&self, start: [f64; AXES], command: &MotionCommand) -> Result<LinearPlan, u16> {
         let geometry = self.geometry.as_ref().ok_or(code::TARGET_UNREACHABLE)?;
+        let limits = move_limits(&self.dynamics.limits, command);
         let arm = Arm {
             kinematics: &self.kinematics,
             geometry,
-            joints: &self.dynamics.limits,
+            joints: &limits,
             tcp: &self.dynamics.tcp,
         };
         LinearMove::plan(start, command, &arm, self.dynamics.override_reserve).map_err(|e| e.code())
     }
 
-    /// Plans the linear move at the front of a standing, running sequence again from where
-    /// the arm stands, if it was planned from elsewhere (after an aborting move's stop or
-    /// an interrupt); a move that cannot start from there ends with its error. Until then
-    /// the motion (and a copy of it in the window) waits. Runs before the committed tick of
-    /// a step only, never in a replayed one: the servo used a window in which the move
-    /// waited, and the replay must wait too.
+    /// Plans the linear move a standing arm starts next again from where the arm stands, if
+    /// it was planned from elsewhere (after an aborting move's stop or an interrupt); a move
+    /// that cannot start from there ends with its error. Until then the motion (and a copy
+    /// of it in the window) waits. Runs before the committed tick of a step only, never in a
+    /// replayed one: the servo used a window in which the move waited, and the replay must
+    /// wait too.
     fn prepare_next_move(&mut self) {
-        while self.motion.phase == Phase::Idle && !self.motion.sequence_paused {
+        while self.motion.phase == Phase::Idle {
             let start = self.motion.point.q;
-            let Some(front) = self.queue.front_mut() else {
+            let Some((sequence, front)) =
+                self.sequences.next(&Cursor::default(), self.motion.holds)
+            else {
                 return;
             };
             let stale = front.command.kind == MotionCommandKind::MoveLinear as u8
@@ -340,14 +358,14 @@ impl Executor {
             let command = front.command;
             match self.plan_linear(start, &command) {
                 Ok(plan) => {
-                    if let Some(front) = self.queue.front_mut() {
+                    if let Some(front) = self.sequences.queue_mut(sequence).front_mut() {
                         front.command.joints_rad = plan.target();
                         front.linear = Some(plan);
                     }
                     return;
                 }
                 Err(code) => {
-                    self.queue.pop_front();
+                    self.sequences.queue_mut(sequence).pop_front();
                     self.report(command.job, state::ERROR, code);
                 }
             }
@@ -358,11 +376,7 @@ impl Executor {
     /// will start (ConfigMode and TurnMode decide among the solutions), then it is a joint
     /// move like MoveAxesAbsolute.
     fn accept_move_direct(&mut self, command: &MotionCommand, drive: DriveState) {
-        let start = if command.aborting {
-            self.motion.point.q
-        } else {
-            self.sequence_end()
-        };
+        let start = self.start_of(command);
         match self.joint_target(command, &start) {
             Ok(joints) => {
                 let mut joint_move = *command;
@@ -374,8 +388,8 @@ impl Executor {
         }
     }
 
-    /// The joint target (rad) of the Cartesian target of `command`, or the SRCI code why
-    /// there is none.
+    /// The joint target (rad) of the Cartesian target of `command` within its limits, or the
+    /// SRCI code why there is none.
     fn joint_target(
         &self,
         command: &MotionCommand,
@@ -390,61 +404,136 @@ impl Executor {
             config_modes: ConfigModes::from_wire(command.config_modes).map_err(|e| e.code())?,
             turn_mode: TurnMode::parse(command.turn_mode).map_err(|e| e.code())?,
         };
-        select(&geometry, &target, start, &self.dynamics.limits).map_err(|e| e.code())
+        select(
+            &geometry,
+            &target,
+            start,
+            &move_limits(&self.dynamics.limits, command),
+        )
+        .map_err(|e| e.code())
     }
 
-    /// Where the arm will stand when the primary sequence has been executed.
-    fn sequence_end(&self) -> [f64; AXES] {
-        match (self.queue.back(), self.motion.phase) {
+    /// Where the move of `command` is expected to start: where the arm stands for an
+    /// aborting move, else where its sequence ends.
+    fn start_of(&self, command: &MotionCommand) -> [f64; AXES] {
+        if command.aborting {
+            return self.motion.point.q;
+        }
+        // Secondary moves go first: a primary move starts after both sequences' moves.
+        let last = match Sequence::of_move(command) {
+            Sequence::Primary => self
+                .sequences
+                .queue(Sequence::Primary)
+                .back()
+                .or(self.sequences.queue(Sequence::Secondary).back()),
+            Sequence::Secondary => self.sequences.queue(Sequence::Secondary).back(),
+        };
+        match (last, self.motion.phase) {
             (Some(last), _) => last.command.joints_rad,
             (None, Phase::Running { plan, .. }) => plan.target(),
             (None, _) => self.motion.point.q,
         }
     }
 
-    /// GroupInterrupt: brakes the running move on its path and puts it back at the front of
-    /// the sequence, which holds until GroupContinue; done once the arm stands.
-    fn interrupt(&mut self, job: u32) {
-        self.motion.sequence_paused = true;
-        if let Some(interrupted) = self.motion.brake() {
-            if let Some(command) = self.running.filter(|c| c.command.job == interrupted) {
-                // Room is kept for exactly this move; continuing plans it again from the stop.
-                let _ = self.queue.push_front(command);
-            }
-            self.report(
-                interrupted,
-                state::INTERRUPTED,
-                code::INTERRUPTED_BY_GROUP_INTERRUPT,
-            );
+    /// GroupInterrupt: holds the sequences of `scope` until GroupContinue; their running
+    /// move brakes on its path and waits at the front of its sequence. Done once it stands.
+    fn interrupt(&mut self, job: u32, scope: MotionSequence) {
+        for sequence in Sequence::within(scope) {
+            self.motion.holds.set(sequence, true);
         }
-        if let Some(previous) = self.pending_interrupt.replace(job) {
+        if self
+            .motion
+            .running()
+            .is_some_and(|active| active.sequence.is_in(scope))
+        {
+            self.interrupt_running(code::INTERRUPTED_BY_GROUP_INTERRUPT);
+        }
+        if let Some((previous, _)) = self.pending_interrupt.replace((job, scope)) {
             self.report(previous, state::DONE, 0);
         }
     }
 
-    /// Brakes the running move on its path and ends it and every buffered move ABORTED.
-    fn stop(&mut self, reason: u16) {
-        if let Some(job) = self.motion.brake() {
-            self.report(job, state::ABORTED, reason);
+    /// GroupContinue: releases the sequences of `scope`; a GroupInterrupt of them that is
+    /// still braking ends ABORTED.
+    fn resume(&mut self, job: u32, scope: MotionSequence) {
+        for sequence in Sequence::within(scope) {
+            self.motion.holds.set(sequence, false);
         }
-        while let Some(queued) = self.queue.pop_front() {
-            self.report(queued.command.job, state::ABORTED, reason);
+        if let Some((previous, interrupted)) = self.pending_interrupt
+            && overlap(interrupted, scope)
+        {
+            self.pending_interrupt = None;
+            self.report(previous, state::ABORTED, code::ABORTED_BY_MOTION_COMMAND);
         }
-        // Nothing is left to continue.
-        if reason == code::ABORTED_BY_GROUP_STOP {
-            self.motion.sequence_paused = false;
+        self.report(job, state::DONE, 0);
+    }
+
+    /// Brakes the running move on its path and puts it back at the front of its sequence,
+    /// reported INTERRUPTED with `reason`; continuing plans it again from where it stops.
+    fn interrupt_running(&mut self, reason: u16) {
+        let Some(active) = self.motion.running() else {
+            return;
+        };
+        self.motion.brake();
+        if let Some(queued) = self.running.filter(|c| c.command.job == active.job) {
+            // Room is kept for exactly this move.
+            let _ = self.sequences.queue_mut(active.sequence).push_front(queued);
+        }
+        self.report(active.job, state::INTERRUPTED, reason);
+    }
+
+    /// The drives are switched off: the running move is interrupted (0x6F02), and every
+    /// sequence with a move in flight is held until the drives are enabled again and a
+    /// GroupContinue releases it.
+    fn hold_for_disabled_drives(&mut self) {
+        for sequence in Sequence::BOTH {
+            let running = self
+                .motion
+                .running()
+                .is_some_and(|active| active.sequence == sequence);
+            if running || !self.sequences.queue(sequence).is_empty() {
+                self.motion.holds.set(sequence, true);
+            }
+        }
+        self.interrupt_running(code::INTERRUPTED_NOT_ENABLED);
+        // The drives stop the arm; the executor follows it until it stands.
+        self.motion.phase = Phase::Idle;
+    }
+
+    /// Brakes the running move of the sequences of `scope` on its path and ends it and
+    /// their buffered moves ABORTED; moves of the other sequence stay as they are.
+    fn stop(&mut self, scope: MotionSequence, reason: u16) {
+        if let Some(active) = self
+            .motion
+            .running()
+            .filter(|active| active.sequence.is_in(scope))
+        {
+            self.motion.brake();
+            self.report(active.job, state::ABORTED, reason);
+        }
+        for sequence in Sequence::within(scope) {
+            while let Some(queued) = self.sequences.queue_mut(sequence).pop_front() {
+                self.report(queued.command.job, state::ABORTED, reason);
+            }
+            // Nothing is left to continue.
+            if reason == code::ABORTED_BY_GROUP_STOP {
+                self.motion.holds.set(sequence, false);
+            }
         }
     }
 
-    /// Ends the running and every buffered move with `state` and `reason`, leaving the arm
-    /// where it is commanded now.
+    /// Ends the running and every buffered move of both sequences with `state` and
+    /// `reason`, leaving the arm where it is commanded now; nothing is left to continue.
     fn end_all(&mut self, state: u8, reason: u16) {
-        if let Some(job) = self.motion.running_job() {
-            self.report(job, state, reason);
+        if let Some(active) = self.motion.running() {
+            self.report(active.job, state, reason);
         }
         self.motion.phase = Phase::Idle;
-        while let Some(queued) = self.queue.pop_front() {
-            self.report(queued.command.job, state, reason);
+        for sequence in Sequence::BOTH {
+            while let Some(queued) = self.sequences.queue_mut(sequence).pop_front() {
+                self.report(queued.command.job, state, reason);
+            }
+            self.motion.holds.set(sequence, false);
         }
     }
 
@@ -452,44 +541,57 @@ impl Executor {
     /// cannot continue: they end with a motion error that only a reset clears.
     fn lose_sync(&mut self) {
         self.synced = false;
-        if self.motion.running_job().is_some() || !self.queue.is_empty() {
+        if self.motion.running().is_some() || !self.sequences.is_empty() {
             self.end_all(state::ERROR, code::MOTION_ERROR);
             self.status.error_code = code::MOTION_ERROR;
         }
         self.motion.phase = Phase::Idle;
     }
 
+    /// Whether the arm moves or would start a move.
     fn is_busy(&self) -> bool {
-        self.motion.phase != Phase::Idle || !self.queue.is_empty()
+        self.motion.phase != Phase::Idle
+            || self
+                .sequences
+                .next(&Cursor::default(), self.motion.holds)
+                .is_some()
     }
 
-    /// A pending GroupStop or GroupInterrupt is done once the commanded arm stands.
+    /// A pending GroupStop or GroupInterrupt is done once the commanded moves of the
+    /// sequences it acts on stand.
     fn finish_stop(&mut self) {
-        if self.synced && self.motion.phase == Phase::Idle {
-            if let Some(job) = self.pending_stop.take() {
-                self.report(job, state::DONE, 0);
-            }
-            if let Some(job) = self.pending_interrupt.take() {
-                self.report(job, state::DONE, 0);
-            }
+        if !self.synced {
+            return;
+        }
+        let moving = self.motion.moving_sequence();
+        let stands = |scope: MotionSequence| moving.is_none_or(|s| !s.is_in(scope));
+        if let Some((job, _)) = self.pending_stop.filter(|&(_, scope)| stands(scope)) {
+            self.pending_stop = None;
+            self.report(job, state::DONE, 0);
+        }
+        if let Some((job, _)) = self.pending_interrupt.filter(|&(_, scope)| stands(scope)) {
+            self.pending_interrupt = None;
+            self.report(job, state::DONE, 0);
         }
     }
 
     /// Commits the next tick of the real motion: events are reported, started moves leave
     /// the queue.
     fn advance(&mut self, dt: f64) {
-        let mut cursor = 0;
+        let mut cursor = Cursor::default();
         let events = &mut self.events;
         self.motion.advance(
             &self.dynamics,
-            &self.queue,
+            &self.sequences,
             &mut cursor,
             dt,
             self.override_target,
             &mut |job, state, code| events.push(job, state, code),
         );
-        for _ in 0..cursor {
-            self.running = self.queue.pop_front();
+        for sequence in Sequence::BOTH {
+            for _ in 0..cursor.passed(sequence) {
+                self.running = self.sequences.queue_mut(sequence).pop_front();
+            }
         }
         self.tick = self.tick.wrapping_add(1);
     }
@@ -497,13 +599,13 @@ impl Executor {
     /// The committed point and the points a copy of the motion takes in the following ticks.
     fn window(&self, dt: f64) -> ServoSetpoint {
         let mut ahead = self.motion;
-        let mut cursor = 0;
+        let mut cursor = Cursor::default();
         let mut points = [JointPoint::default(); SETPOINT_WINDOW];
         points[0] = ahead.point;
         for point in points.iter_mut().skip(1) {
             ahead.advance(
                 &self.dynamics,
-                &self.queue,
+                &self.sequences,
                 &mut cursor,
                 dt,
                 self.override_target,
@@ -527,8 +629,8 @@ impl Executor {
         let s = &mut self.status;
         s.tick = feedback.tick;
         match self.motion.phase {
-            Phase::Running { job, .. } => {
-                s.active_job = job;
+            Phase::Running { active, .. } => {
+                s.active_job = active.job;
                 s.active_progress = 100.0 * self.motion.path_position;
             }
             _ => {
@@ -536,7 +638,9 @@ impl Executor {
                 s.active_progress = 0.0;
             }
         }
-        s.queued_jobs = u32::try_from(self.queue.len()).unwrap_or(u32::MAX);
+        // The interpreter counts the primary moves waiting, held ones included.
+        let primary = self.sequences.queue(Sequence::Primary).len();
+        s.queued_jobs = u32::try_from(primary).unwrap_or(u32::MAX);
         s.joints_rad = point.q;
         s.joint_velocities = point.qd;
         s.flange_pose = self.kinematics.flange_pose(&point.q);
@@ -549,7 +653,7 @@ impl Executor {
             s.turn_numbers = wire;
         }
         s.override_fraction = self.override_target;
-        s.sequence_paused = self.motion.sequence_paused;
+        s.sequence_paused = self.motion.holds.primary;
         // The path acceleration tells speeding up from slowing down, on any path.
         let (_, path_acceleration) = self.motion.path_rate;
         s.moving = point.qd.iter().any(|v| v.abs() > MOVING_VELOCITY);

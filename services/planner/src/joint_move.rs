@@ -75,6 +75,16 @@ pub fn validate(command: &MotionCommand, limits: &JointLimitsRad) -> Result<(), 
     validate_timing(command)
 }
 
+/// The joint limits every point of the move of `command` must keep: the robot's `limits`,
+/// narrowed to the SW limits the PLC sent with it (infinite or NaN bounds narrow nothing).
+pub fn move_limits(limits: &JointLimitsRad, command: &MotionCommand) -> JointLimitsRad {
+    JointLimitsRad {
+        min: core::array::from_fn(|i| limits.min[i].max(command.sw_lower_rad[i])),
+        max: core::array::from_fn(|i| limits.max[i].min(command.sw_upper_rad[i])),
+        ..*limits
+    }
+}
+
 /// Checks joint `axis` at `q_rad` against its limits narrowed by `margin_rad` on both sides.
 pub fn check_limits(
     axis: usize,
@@ -384,6 +394,21 @@ mod tests {
         t[3] = f64::NAN;
         let e = validate(&move_to(t), &limits()).unwrap_err();
         assert_eq!(e.code(), code::INVALID_JOINT_POSITION);
+    }
+
+    #[test]
+    fn sw_limits_narrow_the_mechanical_ones_only() {
+        let mut c = move_to([0.0; AXES]);
+        c.sw_lower_rad[1] = -1.0;
+        c.sw_upper_rad[2] = 5.0;
+        c.sw_upper_rad[3] = f64::NAN;
+        let l = move_limits(&limits(), &c);
+        assert_eq!(l.min, [-3.0, -1.0, -3.0, -3.0, -3.0, -3.0]);
+        assert_eq!(l.max, [3.0; AXES]);
+        assert_eq!(l.velocity, limits().velocity);
+        c.joints_rad[1] = -1.5;
+        assert_eq!(validate(&c, &l).unwrap_err().code(), code::SW_LIMIT_LOWER);
+        assert!(validate(&c, &limits()).is_ok());
     }
 
     #[test]

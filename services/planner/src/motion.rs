@@ -10,7 +10,7 @@ use shared_types::srci::message::state;
 use crate::brake::PathBrake;
 use crate::joint_move::{JointMove, Plan, Timing};
 use crate::linear_move::{LinearMove, LinearPlan, TcpLimits};
-use crate::queue::MoveQueue;
+use crate::sequences::{Cursor, Holds, Sequence, Sequences};
 
 /// The path of a running move: a straight line in joint space or of the TCP.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,10 +56,28 @@ impl Path {
 pub enum Phase {
     /// Standing still at the commanded position.
     Idle,
-    /// Executing the move of `job`; `tau` is the time along its profile.
-    Running { job: u32, plan: Path, tau: f64 },
-    /// Stopping on the path of an aborted move.
-    Braking { plan: Path, brake: PathBrake },
+    /// Executing `active`; `tau` is the time along its profile.
+    Running {
+        active: ActiveMove,
+        plan: Path,
+        tau: f64,
+    },
+    /// Stopping on the path of an aborted or interrupted move of `sequence`.
+    Braking {
+        sequence: Sequence,
+        plan: Path,
+        brake: PathBrake,
+    },
+}
+
+/// The running move's job and what its end does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ActiveMove {
+    pub job: u32,
+    /// The sequence it was taken from.
+    pub sequence: Sequence,
+    /// Its end holds the primary sequence (StepMode).
+    pub hold_after: bool,
 }
 
 /// Limits the moves are planned with.
@@ -89,8 +107,8 @@ pub struct Motion {
     sigma_rate: f64,
     /// What the arm is doing.
     pub phase: Phase,
-    /// GroupInterrupt holds the primary sequence: a standing arm starts no queued move.
-    pub sequence_paused: bool,
+    /// The held sequences: a standing arm starts none of their moves.
+    pub holds: Holds,
 }
 
 impl Motion {
@@ -106,22 +124,31 @@ impl Motion {
             sigma,
             sigma_rate: 0.0,
             phase: Phase::Idle,
-            sequence_paused: false,
+            holds: Holds::default(),
         }
     }
 
-    /// The job of the running move, if any.
-    pub fn running_job(&self) -> Option<u32> {
+    /// The running move, if any.
+    pub fn running(&self) -> Option<ActiveMove> {
         match self.phase {
-            Phase::Running { job, .. } => Some(job),
+            Phase::Running { active, .. } => Some(active),
             _ => None,
         }
     }
 
+    /// The sequence of the move that runs or brakes, if any.
+    pub fn moving_sequence(&self) -> Option<Sequence> {
+        match self.phase {
+            Phase::Running { active, .. } => Some(active.sequence),
+            Phase::Braking { sequence, .. } => Some(sequence),
+            Phase::Idle => None,
+        }
+    }
+
     /// Switches a running move to braking on its path; returns the job that is thereby
-    /// aborted. Braking or standing motion is left as it is.
+    /// aborted or interrupted. Braking or standing motion is left as it is.
     pub fn brake(&mut self) -> Option<u32> {
-        let Phase::Running { job, plan, tau } = self.phase else {
+        let Phase::Running { active, plan, tau } = self.phase else {
             return None;
         };
         let timing = plan.timing();
@@ -135,20 +162,26 @@ impl Motion {
             limits.braking(),
             limits.jerk,
         );
-        self.phase = Phase::Braking { plan, brake };
-        Some(job)
+        self.phase = Phase::Braking {
+            sequence: active.sequence,
+            plan,
+            brake,
+        };
+        Some(active.job)
     }
 
-    /// Advances one tick of `dt` seconds. A standing arm starts the move at `queue[*cursor]`
-    /// (and moves the cursor past it); a linear move only if it was planned from exactly
-    /// where the arm stands, else the arm waits for the executor to plan it from there.
+    /// Advances one tick of `dt` seconds. A standing arm starts the next move of `sequences`
+    /// past `cursor` (see [`Sequences::next`]) and moves the cursor past it; a linear move
+    /// only if it was planned from exactly where the arm stands, else the arm waits for the
+    /// executor to plan it from there. A primary move with `hold_after` holds the primary
+    /// sequence when it is done.
     /// State changes of jobs go to `report(job, state, code)`. A finished stop leaves the
     /// arm standing for this tick, so a stop's end is observable before the next move starts.
     pub fn advance(
         &mut self,
         dynamics: &Dynamics,
-        queue: &MoveQueue,
-        cursor: &mut usize,
+        sequences: &Sequences,
+        cursor: &mut Cursor,
         dt: f64,
         override_target: f64,
         report: &mut impl FnMut(u32, u8, u16),
@@ -156,13 +189,11 @@ impl Motion {
         match self.phase {
             Phase::Idle => {
                 self.stand(override_target);
-                if self.sequence_paused {
-                    return;
-                }
-                let Some(queued) = queue.get(*cursor) else {
+                let Some((sequence, queued)) = sequences.next(cursor, self.holds) else {
                     return;
                 };
                 let command = &queued.command;
+                let hold_after = command.hold_after && sequence == Sequence::Primary;
                 let planned = if command.kind == MotionCommandKind::MoveLinear as u8 {
                     match queued.linear {
                         Some(plan) if plan.start() == &self.point.q => match plan {
@@ -183,24 +214,33 @@ impl Motion {
                         Err(e) => Err(e.code()),
                     }
                 };
-                *cursor += 1;
+                cursor.pass(sequence);
+                let active = ActiveMove {
+                    job: command.job,
+                    sequence,
+                    hold_after,
+                };
                 match planned {
                     Err(code) => report(command.job, state::ERROR, code),
                     Ok(None) => {
                         self.point.q = command.joints_rad;
                         report(command.job, state::ACTIVE, 0);
-                        report(command.job, state::DONE, 0);
+                        self.finish(active, report);
                     }
                     Ok(Some(plan)) => {
                         report(command.job, state::ACTIVE, 0);
-                        self.run(command.job, plan, 0.0, dt, override_target, report);
+                        self.run(active, plan, 0.0, dt, override_target, report);
                     }
                 }
             }
-            Phase::Running { job, plan, tau } => {
-                self.run(job, plan, tau, dt, override_target, report)
+            Phase::Running { active, plan, tau } => {
+                self.run(active, plan, tau, dt, override_target, report)
             }
-            Phase::Braking { plan, mut brake } => {
+            Phase::Braking {
+                sequence,
+                plan,
+                mut brake,
+            } => {
                 brake.advance(dt);
                 self.point = plan.point(brake.s, brake.v, brake.a, &self.point.q);
                 self.path_position = brake.s;
@@ -208,7 +248,11 @@ impl Motion {
                 self.phase = if brake.is_stopped() {
                     Phase::Idle
                 } else {
-                    Phase::Braking { plan, brake }
+                    Phase::Braking {
+                        sequence,
+                        plan,
+                        brake,
+                    }
                 };
             }
         }
@@ -228,7 +272,7 @@ impl Motion {
     /// approaches the target no faster than the move's override rate.
     fn run(
         &mut self,
-        job: u32,
+        active: ActiveMove,
         plan: Path,
         tau: f64,
         dt: f64,
@@ -248,7 +292,7 @@ impl Motion {
             self.path_position = 1.0;
             self.path_rate = (0.0, 0.0);
             self.phase = Phase::Idle;
-            report(job, state::DONE, 0);
+            self.finish(active, report);
             return;
         }
         let (s, sd, sdd) = profile.eval(tau);
@@ -256,6 +300,14 @@ impl Motion {
         self.point = plan.point(s, rate.0, rate.1, &self.point.q);
         self.path_position = s;
         self.path_rate = rate;
-        self.phase = Phase::Running { job, plan, tau };
+        self.phase = Phase::Running { active, plan, tau };
+    }
+
+    /// Reports a move done; StepMode holds the primary sequence after it.
+    fn finish(&mut self, active: ActiveMove, report: &mut impl FnMut(u32, u8, u16)) {
+        if active.hold_after {
+            self.holds.primary = true;
+        }
+        report(active.job, state::DONE, 0);
     }
 }

@@ -1,4 +1,4 @@
-//! The primary sequence: a fixed-capacity FIFO of buffered moves, allocated once.
+//! One sequence's buffered moves: a fixed-capacity FIFO, allocated once.
 
 use shared_types::ipc::{MotionCommand, MotionCommandKind};
 
@@ -23,9 +23,9 @@ impl QueuedMove {
     }
 }
 
-/// The primary sequence holds as many moves as it may.
+/// The sequence holds as many moves as it may.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[error("the primary sequence is full")]
+#[error("the sequence is full")]
 pub struct QueueFull;
 
 /// Buffered moves in execution order.
@@ -115,11 +115,7 @@ impl MoveQueue {
 mod tests {
     use super::*;
 
-    fn job(n: u32) -> QueuedMove {
-        let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
-        c.job = n;
-        QueuedMove::joint(c)
-    }
+    use crate::test_support::queued as job;
 
     #[test]
     fn an_interrupted_move_goes_back_to_the_front_even_when_full() {

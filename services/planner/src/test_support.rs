@@ -1,7 +1,9 @@
 //! Checks shared by the unit tests.
 
 use shared_types::config::JointLimitsRad;
-use shared_types::ipc::{AXES, JointPoint};
+use shared_types::ipc::{AXES, JointPoint, MotionCommand, MotionCommandKind};
+
+use crate::queue::QueuedMove;
 
 /// Relative slack on the limits for rounding.
 const SLACK: f64 = 1e-6;
@@ -52,4 +54,11 @@ pub fn assert_jerk_within_limits(points: &[JointPoint], limits: &JointLimitsRad,
             );
         }
     }
+}
+
+/// A buffered MoveAxes of job `job`.
+pub fn queued(job: u32) -> QueuedMove {
+    let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+    c.job = job;
+    QueuedMove::joint(c)
 }

@@ -1,16 +1,27 @@
 //! The planner's per-tick work allocates nothing in the steady state: a counting global
 //! allocator watches `Executor::step` while joint and linear moves, override changes, an
-//! interrupt, a continue and a stop run through it.
+//! interrupt, a secondary move (a jog) while the primary sequence is held, a continue and a
+//! stop run through it.
 
 use planner::executor::Executor;
 use planner::kinematics::Kinematics;
 use shared_types::alloc_count::{CountingAllocator, count};
 use shared_types::config::Config;
-use shared_types::ipc::{DriveState, JOB_EVENTS, MotionCommand, MotionCommandKind, ServoFeedback};
+use shared_types::ipc::{
+    DriveState, JOB_EVENTS, MotionCommand, MotionCommandKind, MotionSequence, ServoFeedback,
+};
 use shared_types::srci::message::{code, state};
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+/// `command` as a jog on the secondary sequence: the last joint turned from `from`.
+fn jog(mut command: MotionCommand, from: [f64; 6]) -> MotionCommand {
+    command.sequence = MotionSequence::Secondary as u8;
+    command.joints_rad = from;
+    command.joints_rad[5] += 0.2;
+    command
+}
 
 #[test]
 fn steady_state_ticks_do_not_allocate() {
@@ -73,6 +84,7 @@ fn steady_state_ticks_do_not_allocate() {
             let batch: &[MotionCommand] = match tick {
                 0 => &commands,
                 400 if round == 4 || round == 6 => &[command(MotionCommandKind::Interrupt, 200)],
+                600 if round == 4 => &[jog(command(MotionCommandKind::MoveAxes, 304), feedback.q)],
                 900 if round == 4 || round == 6 => &[command(MotionCommandKind::Continue, 201)],
                 200 if round == 7 => &[command(MotionCommandKind::Stop, 202)],
                 _ => &[],
@@ -95,6 +107,10 @@ fn steady_state_ticks_do_not_allocate() {
         }
     }
     assert!(ticks > 10_000);
+    // The jog ran while the primary sequence was held, and the held move after it.
+    let at = |wanted| events.iter().position(|e| *e == wanted);
+    let jog_done = at((304, state::DONE, 0)).expect("the jog is done");
+    assert!(at((14, state::DONE, 0)).is_some_and(|done| done > jog_done));
     // The linear moves ran: the first to its end, the second into the stop.
     assert!(events.contains(&(16, state::DONE, 0)), "{events:?}");
     assert!(events.contains(&(17, state::ACTIVE, 0)), "{events:?}");

@@ -9,8 +9,8 @@ use planner::kinematics::Kinematics;
 use shared_types::bus::{Bus, publish, receive_latest};
 use shared_types::config::Config;
 use shared_types::ipc::{
-    AXES, DriveState, JOB_EVENTS, MotionCommand, MotionCommandKind, MotionStatus, ServoFeedback,
-    ServoSetpoint, topics,
+    AXES, DriveState, JOB_EVENTS, MotionCommand, MotionCommandKind, MotionSequence, MotionStatus,
+    ServoFeedback, ServoSetpoint, topics,
 };
 use shared_types::pose;
 use shared_types::srci::message::state;
@@ -172,4 +172,23 @@ fn the_planner_process_drives_the_tcp_on_a_straight_line() {
         let off = (d - direction * d.dot(&direction)).norm();
         assert!(off < 1e-5, "{off} m off the line");
     }
+}
+
+#[test]
+fn the_planner_process_runs_a_secondary_move_within_the_plc_sw_limits() {
+    let cfg = config("plansec");
+    let home: [f64; AXES] = cfg.robot.home_deg.map(f64::to_radians);
+    let mut target = home;
+    target[5] += 0.2;
+    let mut command = MotionCommand::new(MotionCommandKind::MoveAxes);
+    (command.seq, command.issuer, command.job, command.joints_rad) = (1, 9, 1, target);
+    command.sequence = MotionSequence::Secondary as u8;
+    command.sw_lower_rad = home.map(|q| q - 0.3);
+    command.sw_upper_rad = home.map(|q| q + 0.3);
+    let outcome = drive(&cfg, home, command);
+    assert_eq!(outcome.q, target);
+    assert_eq!(
+        outcome.events,
+        vec![(1, state::BUFFERED), (1, state::ACTIVE), (1, state::DONE)]
+    );
 }

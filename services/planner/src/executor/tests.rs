@@ -61,6 +61,16 @@ impl Rig {
         c
     }
 
+    /// A rig with job 1 (to [`target_a`]) and job 2 (home) sent, job 1 run past `progress` %.
+    fn running(progress: f64) -> Self {
+        let mut rig = Self::new();
+        let a = rig.move_to(1, target_a());
+        let b = rig.move_to(2, home());
+        rig.step(&[a, b]);
+        rig.run_until(10_000, |r| r.executor.status().active_progress > progress);
+        rig
+    }
+
     /// Sends ChangeSpeedOverride `fraction` as job `job` and steps once.
     fn set_override(&mut self, job: u32, fraction: f64) {
         let mut c = self.command(MotionCommandKind::Override, job);
@@ -163,6 +173,13 @@ impl Rig {
             .filter(|e| e.job == job)
             .map(|e| (e.state, e.code))
             .collect()
+    }
+
+    /// Every job of `jobs` ended DONE.
+    fn assert_done(&self, jobs: &[u32]) {
+        for &job in jobs {
+            assert_eq!(self.final_state(job), Some((state::DONE, 0)), "job {job}");
+        }
     }
 
     fn is_final(&self, job: u32) -> bool {
@@ -634,11 +651,8 @@ fn moves_for_disabled_drives_are_refused() {
 }
 
 #[test]
-fn drives_dropping_out_end_the_move_and_the_command_follows_the_arm() {
-    let mut rig = Rig::new();
-    let c = rig.move_to(1, target_a());
-    rig.step(&[c]);
-    rig.run_until(10_000, |r| r.executor.status().active_progress > 10.0);
+fn drives_switched_off_hold_the_move_and_continue_resumes_it() {
+    let mut rig = Rig::running(10.0);
     // The drives brake the arm to a standstill somewhere and drop out.
     let mut elsewhere = rig.feedback.q;
     elsewhere[0] += 0.01;
@@ -647,18 +661,71 @@ fn drives_dropping_out_end_the_move_and_the_command_follows_the_arm() {
     rig.feedback.state = DriveState::Off as u8;
     let window = rig.executor.step(&rig.feedback, &[]);
     rig.collect_events();
+    let from = rig.trace.len();
     assert_eq!(
-        rig.final_state(1),
-        Some((state::ERROR, code::INTERRUPTED_NOT_ENABLED))
+        rig.states_of(1).last(),
+        Some(&(state::INTERRUPTED, code::INTERRUPTED_NOT_ENABLED))
     );
+    assert!(!rig.is_final(1) && !rig.is_final(2));
     let w = window.expect("a standing arm is tracked");
     assert!(
         w.points
             .iter()
             .all(|p| p.q == elsewhere && p.qd == [0.0; AXES])
     );
-    assert_eq!(rig.executor.status().joints_rad, elsewhere);
-    assert_eq!(rig.executor.status().error_code, 0);
+    let s = rig.executor.status();
+    assert_eq!(s.joints_rad, elsewhere);
+    assert_eq!(s.error_code, 0);
+    assert!(s.sequence_paused);
+    assert_eq!(s.queued_jobs, 2);
+    // Enabled again, the sequence waits for GroupContinue.
+    rig.feedback.state = DriveState::Holding as u8;
+    for _ in 0..100 {
+        rig.step(&[]);
+    }
+    assert_eq!(rig.feedback.q, elsewhere);
+    let resume = rig.command(MotionCommandKind::Continue, 3);
+    rig.step(&[resume]);
+    rig.run_until(20_000, |r| r.is_final(2));
+    assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
+    assert_eq!(rig.final_state(2), Some((state::DONE, 0)));
+    assert_eq!(rig.feedback.q, home());
+    assert_within_limits(&rig.trace[from..], &rig.limits, DT);
+}
+
+/// Rig with job 1 (to [`target_a`]) running; then the servo reports that it brakes the arm by
+/// itself, with `misses` more ticks without a setpoint than before.
+fn servo_stops_by_itself(misses: u64) -> Rig {
+    let mut rig = Rig::new();
+    let c = rig.move_to(1, target_a());
+    rig.step(&[c]);
+    rig.run_until(10_000, |r| r.executor.status().active_progress > 10.0);
+    rig.feedback.state = DriveState::Stopping as u8;
+    rig.feedback.setpoint_misses += misses;
+    assert!(rig.executor.step(&rig.feedback, &[]).is_none());
+    rig.collect_events();
+    rig
+}
+
+#[test]
+fn a_servo_stopping_with_setpoints_at_hand_is_being_switched_off() {
+    let rig = servo_stops_by_itself(0);
+    assert_eq!(
+        rig.states_of(1).last(),
+        Some(&(state::INTERRUPTED, code::INTERRUPTED_NOT_ENABLED))
+    );
+    let s = rig.executor.status();
+    assert_eq!((s.error_code, s.queued_jobs), (0, 1));
+    assert!(s.sequence_paused);
+}
+
+#[test]
+fn a_servo_stopping_for_want_of_setpoints_ends_the_move_with_an_error() {
+    let rig = servo_stops_by_itself(5);
+    assert_eq!(rig.final_state(1), Some((state::ERROR, code::MOTION_ERROR)));
+    let s = rig.executor.status();
+    assert_eq!((s.error_code, s.queued_jobs), (code::MOTION_ERROR, 0));
+    assert!(!s.sequence_paused);
 }
 
 #[test]
@@ -854,8 +921,20 @@ mod random {
         Abort([f64; AXES]),
         /// An aborting linear move of the TCP by a shift (m) from home's.
         AbortLinear([f64; 3]),
-        Interrupt,
-        Continue,
+        Interrupt(MotionSequence),
+        Continue(MotionSequence),
+        /// A secondary move turning the last joint from home's by an angle, aborting or not.
+        Jog(f64, bool),
+        /// The jog button released: Halt of the secondary sequence.
+        HaltSecondary,
+    }
+
+    fn scope() -> impl Strategy<Value = MotionSequence> {
+        prop_oneof![
+            Just(MotionSequence::All),
+            Just(MotionSequence::Primary),
+            Just(MotionSequence::Secondary),
+        ]
     }
 
     fn action() -> impl Strategy<Value = Action> {
@@ -864,16 +943,19 @@ mod random {
             1 => Just(Action::Stop),
             1 => prop::array::uniform6(-1.0f64..1.0).prop_map(Action::Abort),
             2 => prop::array::uniform3(-0.15f64..0.15).prop_map(Action::AbortLinear),
-            1 => Just(Action::Interrupt),
-            1 => Just(Action::Continue),
+            2 => scope().prop_map(Action::Interrupt),
+            2 => scope().prop_map(Action::Continue),
+            2 => (-1.0f64..1.0, any::<bool>()).prop_map(|(t, a)| Action::Jog(t, a)),
+            1 => Just(Action::HaltSecondary),
         ]
     }
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(24))]
 
-        /// Whatever happens when, to joint and linear moves, the joints never leave their
-        /// velocity and acceleration limits, and every job ends with a final state.
+        /// Whatever happens when, to joint and linear moves of both sequences, the joints
+        /// never leave their velocity and acceleration limits, and every job ends with a
+        /// final state once both sequences are continued.
         #[test]
         fn any_sequence_of_overrides_stops_and_aborts_keeps_the_limits(
             offset in prop::array::uniform6(-1.0f64..1.0),
@@ -885,11 +967,13 @@ mod random {
             let c = rig.move_to(1, first);
             rig.step(&[c]);
             let mut job = 1;
+            let mut jobs = vec![1];
             for (wait, action) in actions {
                 for _ in 0..wait {
                     rig.step(&[]);
                 }
                 job += 1;
+                jobs.push(job);
                 let c = match action {
                     Action::Override(f) => {
                         let mut c = rig.command(MotionCommandKind::Override, job);
@@ -908,16 +992,45 @@ mod random {
                         c.aborting = true;
                         c
                     }
-                    Action::Interrupt => rig.command(MotionCommandKind::Interrupt, job),
-                    Action::Continue => rig.command(MotionCommandKind::Continue, job),
+                    Action::Interrupt(scope) => {
+                        let mut c = rig.command(MotionCommandKind::Interrupt, job);
+                        c.sequence = scope as u8;
+                        c
+                    }
+                    Action::Continue(scope) => {
+                        let mut c = rig.command(MotionCommandKind::Continue, job);
+                        c.sequence = scope as u8;
+                        c
+                    }
+                    Action::Jog(turn, aborting) => {
+                        let mut target = base;
+                        target[5] += turn;
+                        let mut c = rig.move_to(job, target);
+                        c.sequence = MotionSequence::Secondary as u8;
+                        c.aborting = aborting;
+                        c
+                    }
+                    Action::HaltSecondary => {
+                        // Halt reports nothing under its own job.
+                        jobs.pop();
+                        let mut c = rig.command(MotionCommandKind::Halt, 0);
+                        c.sequence = MotionSequence::Secondary as u8;
+                        c
+                    }
                 };
                 rig.step(&[c]);
             }
             let mut resume = rig.command(MotionCommandKind::Override, job + 1);
             resume.override_fraction = 1.0;
             let go_on = rig.command(MotionCommandKind::Continue, job + 2);
+            jobs.extend([job + 1, job + 2]);
             rig.step(&[resume, go_on]);
-            rig.run_until(40_000, |r| (1..=job + 2).all(|j| r.is_final(j)));
+            rig.run_until(60_000, |r| {
+                jobs.iter().all(|&j| r.is_final(j)) && !r.executor.status().moving
+            });
+            let s = rig.executor.status();
+            prop_assert!(!s.sequence_paused);
+            prop_assert_eq!((s.active_job, s.queued_jobs), (0, 0));
             rig.check_limits();
         }
     }
@@ -1231,4 +1344,381 @@ fn a_lower_deceleration_rate_slows_only_the_end_of_the_move() {
         "{}",
         braking(&equal)
     );
+}
+
+mod sequences {
+    use super::*;
+
+    /// `command` acting on (or belonging to) `scope`.
+    fn on(scope: MotionSequence, mut command: MotionCommand) -> MotionCommand {
+        command.sequence = scope as u8;
+        command
+    }
+
+    /// A secondary move (a jog) from `from`, turning the last joint by `turn`.
+    fn jog(rig: &mut Rig, job: u32, from: [f64; AXES], turn: f64) -> MotionCommand {
+        let mut target = from;
+        target[5] += turn;
+        let c = rig.move_to(job, target);
+        on(MotionSequence::Secondary, c)
+    }
+
+    impl Rig {
+        /// Sends the group command `kind` acting on `scope` as job `job` and steps once.
+        fn group(&mut self, kind: MotionCommandKind, job: u32, scope: MotionSequence) {
+            let c = self.command(kind, job);
+            self.step(&[on(scope, c)]);
+        }
+    }
+
+    fn active_before(rig: &Rig, first: u32, second: u32) -> bool {
+        let at = |job| {
+            rig.events
+                .iter()
+                .position(|e| e.job == job && e.state == state::ACTIVE)
+                .unwrap()
+        };
+        at(first) < at(second)
+    }
+
+    /// Rig with primary jobs 1 (to [`target_a`]) and 2 (home), interrupted on the way by
+    /// job 3: the arm stands, the primary sequence is held.
+    fn interrupted_primary() -> Rig {
+        let mut rig = Rig::running(30.0);
+        rig.group(MotionCommandKind::Interrupt, 3, MotionSequence::Primary);
+        rig.run_until(10_000, |r| r.is_final(3));
+        assert_eq!(
+            rig.states_of(1).last(),
+            Some(&(state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT))
+        );
+        rig
+    }
+
+    /// [`interrupted_primary`] with jog job 4 run past 20 %.
+    fn jogging() -> Rig {
+        let mut rig = interrupted_primary();
+        let stood = rig.feedback.q;
+        let j = jog(&mut rig, 4, stood, 1.0);
+        rig.step(&[j]);
+        rig.run_until(10_000, |r| r.executor.status().active_progress > 20.0);
+        rig
+    }
+
+    #[test]
+    fn jogging_while_the_primary_sequence_is_held_leaves_its_moves_alone() {
+        let mut rig = interrupted_primary();
+        let stood = rig.feedback.q;
+        let j = jog(&mut rig, 4, stood, 0.3);
+        rig.step(&[j]);
+        rig.run_until(10_000, |r| r.is_final(4));
+        rig.assert_done(&[4]);
+        assert_eq!(rig.feedback.q, j.joints_rad);
+        let s = rig.executor.status();
+        assert!(s.sequence_paused);
+        assert_eq!((s.queued_jobs, s.active_job), (2, 0));
+
+        // A jog button released: Halt of the secondary sequence, the held moves stay.
+        let k = jog(&mut rig, 5, j.joints_rad, -0.6);
+        rig.step(&[k]);
+        rig.run_until(10_000, |r| r.executor.status().active_progress > 20.0);
+        assert_eq!(rig.executor.status().active_job, 5);
+        rig.group(MotionCommandKind::Halt, 0, MotionSequence::Secondary);
+        assert_eq!(
+            rig.final_state(5),
+            Some((state::ABORTED, code::ABORTED_BY_GROUP_STOP))
+        );
+        rig.run_until(10_000, |r| !r.executor.status().moving);
+        assert!(!rig.is_final(1) && !rig.is_final(2));
+        assert_eq!(rig.executor.status().queued_jobs, 2);
+        assert!(rig.executor.status().sequence_paused);
+
+        rig.group(MotionCommandKind::Continue, 6, MotionSequence::Primary);
+        rig.run_until(20_000, |r| r.is_final(2));
+        rig.assert_done(&[1, 2]);
+        assert_eq!(rig.feedback.q, home());
+        rig.check_limits();
+    }
+
+    #[test]
+    fn a_secondary_move_waits_for_the_running_primary_move_and_goes_before_the_next() {
+        let mut rig = Rig::running(10.0);
+        let j = jog(&mut rig, 3, target_a(), 0.5);
+        rig.step(&[j]);
+        assert_eq!(rig.states_of(3), vec![(state::BUFFERED, 0)]);
+        // Only primary moves count as queued.
+        assert_eq!(rig.executor.status().queued_jobs, 1);
+        rig.run_until(20_000, |r| r.is_final(2));
+        assert!(active_before(&rig, 1, 3) && active_before(&rig, 3, 2));
+        rig.assert_done(&[1, 2, 3]);
+        assert_eq!(rig.feedback.q, home());
+        rig.check_limits();
+    }
+
+    #[test]
+    fn interrupting_the_secondary_sequence_keeps_its_move_and_blocks_the_primary_one() {
+        let mut rig = Rig::new();
+        let start = rig.feedback.q;
+        let j = jog(&mut rig, 1, start, 1.5);
+        rig.step(&[j]);
+        rig.run_until(10_000, |r| r.executor.status().active_progress > 30.0);
+        rig.group(MotionCommandKind::Interrupt, 2, MotionSequence::Secondary);
+        assert_eq!(
+            rig.states_of(1).last(),
+            Some(&(state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT))
+        );
+        rig.run_until(10_000, |r| r.is_final(2));
+        rig.assert_done(&[2]);
+        assert!(!rig.executor.status().sequence_paused);
+        // A primary move waits behind the held secondary one.
+        let c = rig.move_to(3, home());
+        rig.step(&[c]);
+        let stood = rig.feedback.q;
+        for _ in 0..200 {
+            rig.step(&[]);
+        }
+        assert_eq!(rig.feedback.q, stood);
+        assert_eq!(rig.states_of(3), vec![(state::BUFFERED, 0)]);
+        rig.group(MotionCommandKind::Continue, 4, MotionSequence::Secondary);
+        rig.run_until(20_000, |r| r.is_final(3));
+        rig.assert_done(&[1, 3]);
+        assert!(active_before(&rig, 1, 3));
+        assert_eq!(rig.feedback.q, home());
+        rig.check_limits();
+        rig.check_on_line(0, start, j.joints_rad);
+    }
+
+    #[test]
+    fn interrupting_both_sequences_holds_each_until_its_own_continue() {
+        let mut rig = Rig::new();
+        let a = rig.move_to(1, target_a());
+        rig.step(&[a]);
+        rig.run_until(10_000, |r| r.executor.status().active_progress > 30.0);
+        rig.group(MotionCommandKind::Interrupt, 2, MotionSequence::All);
+        rig.run_until(10_000, |r| r.is_final(2));
+        assert!(rig.executor.status().sequence_paused);
+        let stood = rig.feedback.q;
+        let j = jog(&mut rig, 3, stood, 0.2);
+        rig.step(&[j]);
+        for _ in 0..100 {
+            rig.step(&[]);
+        }
+        assert_eq!(rig.states_of(3), vec![(state::BUFFERED, 0)]);
+        rig.group(MotionCommandKind::Continue, 4, MotionSequence::Secondary);
+        rig.run_until(10_000, |r| r.is_final(3));
+        rig.assert_done(&[3]);
+        for _ in 0..100 {
+            rig.step(&[]);
+        }
+        assert!(!rig.is_final(1));
+        rig.group(MotionCommandKind::Continue, 5, MotionSequence::Primary);
+        rig.run_until(20_000, |r| r.is_final(1));
+        rig.assert_done(&[1]);
+        assert_eq!(rig.feedback.q, target_a());
+        rig.check_limits();
+    }
+
+    #[test]
+    fn an_aborting_secondary_move_aborts_only_secondary_moves() {
+        let mut rig = interrupted_primary();
+        let stood = rig.feedback.q;
+        let j = jog(&mut rig, 4, stood, 1.0);
+        let k = jog(&mut rig, 5, j.joints_rad, 0.2);
+        rig.step(&[j, k]);
+        rig.run_until(10_000, |r| r.executor.status().active_progress > 20.0);
+        let mut l = jog(&mut rig, 6, stood, -0.3);
+        l.aborting = true;
+        rig.step(&[l]);
+        let abort = (state::ABORTED, code::ABORTED_BY_MOTION_COMMAND);
+        assert_eq!(rig.final_state(4), Some(abort));
+        assert_eq!(rig.final_state(5), Some(abort));
+        rig.run_until(10_000, |r| r.is_final(6));
+        rig.assert_done(&[6]);
+        assert_eq!(rig.feedback.q, l.joints_rad);
+        assert!(!rig.is_final(1) && !rig.is_final(2));
+        assert_eq!(rig.executor.status().queued_jobs, 2);
+        rig.check_limits();
+    }
+
+    #[test]
+    fn a_halt_of_the_secondary_sequence_leaves_a_running_primary_move_alone() {
+        let mut rig = Rig::new();
+        let a = rig.move_to(1, target_a());
+        rig.step(&[a]);
+        rig.run_until(10_000, |r| r.executor.status().active_progress > 30.0);
+        let j = jog(&mut rig, 2, target_a(), 0.3);
+        rig.step(&[j]);
+        rig.group(MotionCommandKind::Halt, 0, MotionSequence::Secondary);
+        assert_eq!(
+            rig.final_state(2),
+            Some((state::ABORTED, code::ABORTED_BY_GROUP_STOP))
+        );
+        assert!(!rig.executor.status().decelerating);
+        rig.run_until(10_000, |r| r.is_final(1));
+        rig.assert_done(&[1]);
+        assert_eq!(rig.feedback.q, target_a());
+    }
+
+    #[test]
+    fn a_group_stop_ends_both_sequences() {
+        let mut rig = jogging();
+        rig.group(MotionCommandKind::Stop, 5, MotionSequence::All);
+        let abort = (state::ABORTED, code::ABORTED_BY_GROUP_STOP);
+        for job in [1, 2, 4] {
+            assert_eq!(rig.final_state(job), Some(abort), "job {job}");
+        }
+        rig.run_until(10_000, |r| r.is_final(5));
+        rig.assert_done(&[5]);
+        let s = rig.executor.status();
+        assert!(!s.sequence_paused && !s.moving);
+        assert_eq!(s.queued_jobs, 0);
+    }
+
+    #[test]
+    fn step_mode_holds_the_primary_sequence_after_each_move() {
+        let mut rig = Rig::new();
+        let mut a = rig.move_to(1, target_a());
+        a.hold_after = true;
+        let b = rig.move_to(2, home());
+        rig.step(&[a, b]);
+        rig.run_until(10_000, |r| r.is_final(1));
+        rig.assert_done(&[1]);
+        for _ in 0..200 {
+            rig.step(&[]);
+        }
+        assert_eq!(rig.states_of(2), vec![(state::BUFFERED, 0)]);
+        let s = rig.executor.status();
+        assert!(s.sequence_paused);
+        assert_eq!(s.queued_jobs, 1);
+        // A secondary move still runs; its own StepMode flag holds nothing.
+        let mut j = jog(&mut rig, 3, target_a(), 0.2);
+        j.hold_after = true;
+        rig.step(&[j]);
+        rig.run_until(10_000, |r| r.is_final(3));
+        let k = jog(&mut rig, 4, j.joints_rad, -0.2);
+        rig.step(&[k]);
+        rig.run_until(10_000, |r| r.is_final(4));
+        rig.assert_done(&[4]);
+        rig.group(MotionCommandKind::Continue, 5, MotionSequence::Primary);
+        rig.run_until(20_000, |r| r.is_final(2));
+        rig.assert_done(&[2]);
+        assert!(!rig.executor.status().sequence_paused);
+        // A move done at once holds as well.
+        let mut c = rig.move_to(6, home());
+        c.hold_after = true;
+        rig.step(&[c]);
+        rig.assert_done(&[6]);
+        assert!(rig.executor.status().sequence_paused);
+    }
+
+    #[test]
+    fn targets_outside_the_plc_sw_limits_are_refused() {
+        let mut rig = Rig::new();
+        let target = target_a();
+        let mut low = rig.move_to(1, target);
+        low.sw_lower_rad[1] = target[1] + 0.1;
+        let mut high = rig.move_to(2, target);
+        high.sw_upper_rad[4] = target[4] - 0.1;
+        let mut inside = rig.move_to(3, target);
+        inside.sw_lower_rad = target.map(|q| q - 0.01);
+        inside.sw_upper_rad = target.map(|q| q + 0.01);
+        rig.step(&[low, high, inside]);
+        assert_eq!(
+            rig.final_state(1),
+            Some((state::ERROR, code::SW_LIMIT_LOWER))
+        );
+        assert_eq!(
+            rig.final_state(2),
+            Some((state::ERROR, code::SW_LIMIT_UPPER))
+        );
+        rig.run_until(10_000, |r| r.is_final(3));
+        rig.assert_done(&[3]);
+    }
+
+    #[test]
+    fn a_direct_move_chooses_a_solution_within_the_sw_limits() {
+        let mut rig = Rig::new();
+        let target = target_a();
+        let pose = Kinematics::new(&config().robot.kinematics).flange_pose(&target);
+        // Joint 6 ends at -2 rad on the nearest turn; the SW limits only allow the next one.
+        let mut c = rig.command(MotionCommandKind::MoveDirect, 1);
+        c.pose = pose;
+        c.sw_lower_rad[5] = -1.0;
+        let mut none = c;
+        none.sw_upper_rad[5] = 1.0;
+        (none.job, none.seq) = (2, c.seq);
+        c.seq = rig.command(MotionCommandKind::MoveDirect, 1).seq;
+        rig.step(&[none]);
+        assert_eq!(
+            rig.final_state(2),
+            Some((state::ERROR, code::SW_LIMIT_LOWER))
+        );
+        rig.step(&[c]);
+        rig.run_until(20_000, |r| r.is_final(1));
+        rig.assert_done(&[1]);
+        let turned = target[5] + core::f64::consts::TAU;
+        assert!(
+            (rig.feedback.q[5] - turned).abs() < 1e-6,
+            "{:?}",
+            rig.feedback.q
+        );
+    }
+
+    #[test]
+    fn a_line_through_the_plc_sw_limits_is_refused() {
+        // Where the joints go on the line, from a free run of it.
+        let mut free = Rig::new();
+        let c = free.line_by(1, SHIFT, TURN);
+        free.step(&[c]);
+        free.run_until(20_000, |r| r.is_final(1));
+        let (start, end) = (home(), free.feedback.q);
+        let axis = (0..AXES)
+            .max_by(|&a, &b| {
+                (end[a] - start[a])
+                    .abs()
+                    .total_cmp(&(end[b] - start[b]).abs())
+            })
+            .unwrap();
+        let middle = 0.5 * (start[axis] + end[axis]);
+        let mut rig = Rig::new();
+        let mut c = rig.line_by(1, SHIFT, TURN);
+        if end[axis] > start[axis] {
+            c.sw_upper_rad[axis] = middle;
+        } else {
+            c.sw_lower_rad[axis] = middle;
+        }
+        let expected = if end[axis] > start[axis] {
+            code::SW_LIMIT_UPPER
+        } else {
+            code::SW_LIMIT_LOWER
+        };
+        rig.step(&[c]);
+        assert_eq!(rig.states_of(1), vec![(state::ERROR, expected)]);
+    }
+
+    #[test]
+    fn drives_switched_off_under_a_jog_hold_it_on_its_own_sequence() {
+        let mut rig = jogging();
+        rig.feedback.qd = [0.0; AXES];
+        rig.feedback.state = DriveState::Off as u8;
+        rig.window = rig.executor.step(&rig.feedback, &[]);
+        rig.collect_events();
+        assert_eq!(
+            rig.states_of(4).last(),
+            Some(&(state::INTERRUPTED, code::INTERRUPTED_NOT_ENABLED))
+        );
+        assert_eq!(rig.executor.status().queued_jobs, 2);
+        // The PLC lets go of the jog: the secondary sequence is discarded, and released.
+        rig.feedback.state = DriveState::Holding as u8;
+        rig.group(MotionCommandKind::Halt, 0, MotionSequence::Secondary);
+        assert_eq!(
+            rig.final_state(4),
+            Some((state::ABORTED, code::ABORTED_BY_GROUP_STOP))
+        );
+        let here = rig.feedback.q;
+        let k = jog(&mut rig, 5, here, 0.1);
+        rig.step(&[k]);
+        rig.run_until(10_000, |r| r.is_final(5));
+        rig.assert_done(&[5]);
+        assert!(!rig.is_final(1) && rig.executor.status().sequence_paused);
+    }
 }
