@@ -2,9 +2,6 @@
 //! (`rc run`) over the TCP gateway with the PLC-side client and checking the response bytes a
 //! PLC programmer relies on (decoded through the generated specification tables), the state
 //! sequence, and the error codes the server answers, with their ReadMessages entries.
-//!
-//! Assertions marked `SERVER BUG` state what the specification demands where the server does
-//! not (yet) comply.
 
 mod common;
 
@@ -21,13 +18,16 @@ mod conformance {
     mod load_data;
     mod move_axes_absolute;
     mod move_direct_absolute;
+    mod move_linear_absolute;
     mod read_actual_position;
     mod read_actual_position_cyclic;
     mod read_messages;
     mod read_robot_data;
     mod reference_dynamics;
     mod robot_task;
+    mod server_log;
     mod sw_limits;
+    mod sync;
     mod tool_data;
     mod unsupported;
 }

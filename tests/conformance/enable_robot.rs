@@ -93,11 +93,8 @@ fn enable_reports_enabled_then_disable_ends_done() {
 }
 
 #[test]
-fn disabling_during_a_move_stops_the_arm_and_ends_the_move() {
-    use crate::common::{
-        HOME, actual_joints, cycles_until, expect_done, max_deviation, move_to, reset_and_enable,
-        start_slow_move,
-    };
+fn disabling_during_a_move_holds_it_until_enable_and_group_continue() {
+    use crate::common::{actual_joints, cycles_until, expect_done, max_deviation, start_slow_move};
     let (_c, mut plc) = initialized("enmove");
     expect_done(&mut plc, &Request::GroupReset, 4);
     let enable = plc
@@ -113,28 +110,37 @@ fn disabling_during_a_move_stops_the_arm_and_ends_the_move() {
         .expect("switch off");
     let s = run_until_state(&mut plc, enable, state::DONE, Duration::from_secs(5));
     assert_eq!((s.state, s.code), (state::DONE, 0), "switched off: {s:?}");
-    let s = run_until_state(&mut plc, m, state::DONE, Duration::from_secs(3));
-    assert_ne!(s.state, state::DONE, "{s:?}");
+    // The move is held, not ended: INTERRUPTED with 0x6F02 (interrupted by RA state
+    // NOT_ENABLED), no error; after EnableRobot it needs GroupContinue (the SDK's
+    // behaviour too).
+    let s = run_until_state(&mut plc, m, state::INTERRUPTED, Duration::from_secs(3));
+    assert_eq!(
+        (s.state, s.code),
+        (state::INTERRUPTED, code::INTERRUPTED_NOT_ENABLED),
+        "{s:?}"
+    );
     assert!(
         cycles_until(&mut plc, |t| !t.is_moving(), Duration::from_secs(2)),
         "the arm stands"
     );
     let here = actual_joints(&mut plc);
     assert!(max_deviation(here, target) > 1.0, "short of the target");
-    let error_pending =
-        plc.task().status_word() & shared_types::srci::telegram::status_bit::ERROR_PENDING != 0;
-    reset_and_enable(&mut plc);
-    assert!(move_to(&mut plc, HOME, 100.0) < 0.01, "moves run again");
-    // SERVER BUG (reported): switching the robot off ends the move with 0x6C02 (motion
-    // error, and ErrorPending) instead of 0x6F02 "command interrupted by RA state
-    // NOT_ENABLED" (spec table 7-1).
     assert_eq!(
-        s.code,
-        code::INTERRUPTED_NOT_ENABLED,
-        "SERVER BUG: the move must end with 0x6F02 (interrupted by RA state NOT_ENABLED): {s:?}"
+        plc.task().status_word() & shared_types::srci::telegram::status_bit::ERROR_PENDING,
+        0,
+        "switching off is no error"
     );
-    assert!(
-        !error_pending,
-        "SERVER BUG: switching off is no error, StatusRobotArm.ErrorPending must stay clear"
+    plc.task_mut()
+        .submit(&Request::EnableRobot { enable: true })
+        .expect("submit");
+    plc.run_until(|t| t.is_enabled(), Duration::from_secs(10))
+        .expect("enabled again");
+    expect_done(&mut plc, &Request::GroupContinue, 4);
+    let s = run_until_state(&mut plc, m, state::DONE, Duration::from_secs(30));
+    assert_eq!(
+        (s.state, s.code),
+        (state::DONE, 0),
+        "the held move finishes: {s:?}"
     );
+    assert!(max_deviation(actual_joints(&mut plc), target) < 0.01);
 }

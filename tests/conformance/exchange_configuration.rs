@@ -153,11 +153,11 @@ fn status_bits_in_use_are_announced_as_supported() {
         ),
     ] {
         if seen & bit != 0 {
-            // SERVER BUG (reported): StatusRobotArm reports the bit during moves, but the
-            // ExchangeConfiguration response (table 6-87, bytes 22/23) does not announce it.
+            // StatusRobotArm reports the bit during moves, so the ExchangeConfiguration
+            // response (table 6-87, bytes 22/23) must announce it.
             assert!(
                 r.bit(announced),
-                "SERVER BUG: StatusRobotArm uses bit 0x{bit:X}, so {name} must be set"
+                "StatusRobotArm uses bit 0x{bit:X}, so {name} must be set"
             );
         }
     }

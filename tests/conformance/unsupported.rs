@@ -77,12 +77,11 @@ fn an_undefined_command_type_is_out_of_range() {
             payload: Vec::new(),
         };
         let s = execute(&mut plc, &request, Duration::from_secs(5));
-        // SERVER BUG (reported): the server answers 0x8F11 for types outside the
-        // specification's command catalogue.
+        // A type outside the specification's command catalogue is out of range.
         assert_eq!(
             (s.state, s.severity, s.code),
             (state::ERROR, severity::ERROR, 0x8F20),
-            "SERVER BUG: type {ty} is not in the catalogue, so 0x8F20 (out of range): {s:?}"
+            "type {ty} is not in the catalogue, so 0x8F20 (out of range): {s:?}"
         );
     }
 }

@@ -9,8 +9,8 @@
 
 use shared_types::config::JointLimitsRad;
 use shared_types::ipc::{
-    DriveState, LinkEvent, MotionCommand, MotionCommandKind, MotionStatus, ServoControl,
-    ServoFeedback,
+    DriveState, LinkEvent, MotionCommand, MotionCommandKind, MotionSequence, MotionStatus,
+    ServoControl, ServoFeedback,
 };
 use shared_types::srci::message::{ResponseHeader, code, severity, state};
 use shared_types::srci::tables;
@@ -462,7 +462,9 @@ impl Server {
             self.sync_supervisor
                 .check(&self.sync_request, synchronized, empty, now.mono_ms);
         if action == SyncAction::Interrupt {
-            let interrupt = MotionCommand::new(MotionCommandKind::Interrupt);
+            // The primary sequence only: jogging stays possible to fix the data.
+            let mut interrupt = MotionCommand::new(MotionCommandKind::Interrupt);
+            interrupt.sequence = MotionSequence::Primary as u8;
             let _ = self
                 .motion
                 .submit(interrupt, None, now.mono_ms, &mut fx.motion);
@@ -587,7 +589,11 @@ impl Server {
             );
         }
         self.last_drive_fault = feedback.fault_code;
+        let was_enabled = self.drives_enabled();
         self.feedback = Some(*feedback);
+        if was_enabled && !self.drives_enabled() {
+            self.on_drives_off(now, fx);
+        }
         self.progress_enable(now, fx);
     }
 
@@ -669,8 +675,8 @@ impl Server {
     /// primary sequence is interrupted on its path (its running move reports INTERRUPTED),
     /// and the ACR, the pending responses and the sequence numbers are kept for RESUME.
     fn suspend_session(&mut self, error_state: u8, now: Now, fx: &mut Effects) {
-        let lost = 0x8000 | u16::from(error_state);
-        self.end_jogs(lost, now, fx);
+        // Both sequences are held first; then the jogs end, whose Halt(Secondary) releases the
+        // secondary sequence again, empty.
         let interrupt = MotionCommand::new(MotionCommandKind::Interrupt);
         if self
             .motion
@@ -685,6 +691,7 @@ impl Server {
                 "interrupt not queued: the planner is not taking commands",
             );
         }
+        self.end_jogs(0x8000 | u16::from(error_state), now, fx);
         self.suspended = true;
     }
 

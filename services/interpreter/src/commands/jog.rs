@@ -151,7 +151,7 @@ impl Server {
         }
         if running != 0 {
             // The previous jog motion stops on its path; its job ends ABORTED quietly.
-            self.halt_jog_motion(now, fx);
+            self.halt_secondary(now, fx);
         }
         if !request.enable {
             self.respond(cmd_id, h, state::DONE, 0, now, |_| {});
@@ -200,12 +200,29 @@ impl Server {
         });
     }
 
-    /// Stops the jog motion on its path: the secondary sequence only, so that moves the
-    /// primary sequence holds stay.
-    fn halt_jog_motion(&mut self, now: Now, fx: &mut Effects) {
+    /// Stops the secondary sequence's motion on its path (a jog, ReturnToPrimary, secondary
+    /// moves), so that moves the primary sequence holds stay.
+    pub(crate) fn halt_secondary(&mut self, now: Now, fx: &mut Effects) {
         let mut halt = MotionCommand::new(MotionCommandKind::Halt);
         halt.sequence = MotionSequence::Secondary as u8;
         let _ = self.motion.submit(halt, None, now.mono_ms, &mut fx.motion);
+    }
+
+    /// The drives went off: a jog ends (0x8C03) and the secondary sequence stops, as the
+    /// planner holds whatever ran and a held secondary move would block the primary one.
+    pub(crate) fn on_drives_off(&mut self, now: Now, fx: &mut Effects) {
+        self.end_jogs(code::ROBOT_DISABLED, now, fx);
+        if self.live.iter().any(|l| {
+            matches!(
+                l.kind,
+                LiveKind::Job {
+                    secondary: true,
+                    ..
+                }
+            )
+        }) {
+            self.halt_secondary(now, fx);
+        }
     }
 
     /// Ends every running GroupJog with `code` and stops its motion on the path (the PLC that
@@ -219,7 +236,7 @@ impl Server {
             if let LiveKind::Jog { job, .. } = self.live[i].kind
                 && job != 0
             {
-                self.halt_jog_motion(now, fx);
+                self.halt_secondary(now, fx);
             }
             let (cmd_id, h) = (self.live[i].cmd_id, self.live_header(i));
             self.respond(cmd_id, h, state::ERROR, code, now, |_| {});

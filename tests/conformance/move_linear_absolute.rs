@@ -1,0 +1,230 @@
+//! MoveLinearAbsolute: the TCP of a user tool on a straight line to a target given in a user
+//! frame, with Progress and RemainingDistance, and the refusals before the arm moves.
+
+use std::time::Duration;
+
+use plc_client::request::{FrameData, ToolData};
+use plc_client::response::ActualPosition;
+use plc_client::{CyclicSelection, EngineOptions, Request};
+use shared_types::srci::message::{code, execution_mode, state};
+use shared_types::srci::payload::{PayloadReader, PayloadWriter};
+use shared_types::srci::tables::{move_linear_absolute as mla, read_actual_position as rap};
+
+use crate::common::{
+    Controller, Plc, actual_joints, expect_done, expect_error, initialize, max_deviation,
+    reset_and_enable,
+};
+
+/// A MoveLinearAbsolute to `target` (mm, degrees) in `frame` with `tool`, rates at
+/// default, OriMode LINEAR_INTERPOLATED; `edit` changes the request.
+fn linear(
+    target: [f64; 6],
+    tool: u8,
+    frame: u8,
+    mode: u8,
+    edit: impl FnOnce(&mut PayloadWriter),
+) -> Request {
+    let mut b = vec![0u8; mla::request::LEN];
+    let mut w = PayloadWriter::new(&mut b);
+    for f in [
+        mla::request::VELOCITY_RATE,
+        mla::request::ACCELERATION_RATE,
+        mla::request::DECELERATION_RATE,
+        mla::request::JERK_RATE,
+    ] {
+        w.set_u16(f, 0xFFFF);
+    }
+    w.set_u8(mla::request::TOOL_NO, tool);
+    w.set_u8(mla::request::FRAME_NO, frame);
+    w.set_u8(mla::request::ORI_MODE, 1);
+    // Keep the configuration of the start (ConfigMode SAME), turns FREE.
+    w.set_u8(mla::request::CONFIG_MODE.element(0), 0x11);
+    w.set_u8(mla::request::CONFIG_MODE.element(1), 0x01);
+    w.set_u8(mla::request::TURN_MODE, 2);
+    for (f, v) in mla::request::POSITION_X_RZ.into_iter().zip(target) {
+        w.set_f32(f, v as f32);
+    }
+    edit(&mut w);
+    Request::Raw {
+        command_type: mla::TYPE,
+        execution_mode: mode,
+        payload: b[4..].to_vec(),
+    }
+}
+
+/// Distance (mm) of `p` from the segment `a`–`b`.
+fn distance_from_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
+    let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let ap = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+    let len2 = ab.iter().map(|v| v * v).sum::<f64>();
+    let t = (ab.iter().zip(ap).map(|(x, y)| x * y).sum::<f64>() / len2).clamp(0.0, 1.0);
+    let d = [0, 1, 2].map(|i| ap[i] - t * ab[i]);
+    d.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// The TCP of `tool` in `frame`, read back.
+fn tcp(plc: &mut Plc, tool: u8, frame: u8) -> [f64; 6] {
+    let s = expect_done(
+        plc,
+        &Request::ReadActualPosition { tool, frame },
+        rap::response::LEN,
+    );
+    ActualPosition::decode(&s.response).cartesian
+}
+
+#[test]
+fn the_tcp_moves_on_a_straight_line_to_a_target_in_a_user_frame() {
+    let c = Controller::start("mla");
+    let mut plc = c.client_with(EngineOptions {
+        cyclic_position: CyclicSelection {
+            cartesian: true,
+            joints: false,
+        },
+        ..EngineOptions::default()
+    });
+    initialize(&mut plc);
+    assert!(
+        plc.task()
+            .robot_data()
+            .is_some_and(|d| d.supports(mla::TYPE)),
+        "announced in RCSupportedFunctions"
+    );
+    reset_and_enable(&mut plc);
+    // Tool 1: 120 mm along the flange's Z. Frame 1: 200 mm along the world's Y, turned 30°
+    // about Z.
+    let tool = ToolData {
+        pose: [0.0, 0.0, 120.0, 0.0, 0.0, 0.0],
+        load_no: 0,
+        ..ToolData::default()
+    };
+    expect_done(
+        &mut plc,
+        &Request::write_tool_data(1, &tool),
+        shared_types::srci::tables::write_tool_data::response::LEN,
+    );
+    let frame = FrameData {
+        pose: [0.0, 200.0, 0.0, 0.0, 0.0, 30.0],
+        ..FrameData::default()
+    };
+    expect_done(
+        &mut plc,
+        &Request::write_frame_data(1, &frame),
+        shared_types::srci::tables::write_frame_data::response::LEN,
+    );
+
+    let start = tcp(&mut plc, 1, 1);
+    let mut target = start;
+    target[0] += 80.0;
+    target[1] -= 60.0;
+    target[2] -= 50.0;
+    let handle = plc
+        .task_mut()
+        .submit(&linear(
+            target,
+            1,
+            1,
+            execution_mode::SEQUENCE_PRIMARY,
+            |_| {},
+        ))
+        .expect("submit");
+    // Every telegram's CartesianPosition block (in the tool and frame in use, which the move
+    // made tool 1 and frame 1) must lie on the line.
+    let mut worst: f64 = 0.0;
+    let mut samples = 0;
+    let mut remaining_seen = Vec::new();
+    plc.run_until(
+        |t| {
+            if let Some(p) = t.cyclic_position()
+                && p.tool_frame == Some((1, 1))
+                && let Some(pose) = p.cartesian
+            {
+                let d = distance_from_segment(
+                    [pose[0], pose[1], pose[2]],
+                    [start[0], start[1], start[2]],
+                    [target[0], target[1], target[2]],
+                );
+                worst = worst.max(d);
+                samples += 1;
+            }
+            let status = t.status(handle);
+            if let Some(s) = status
+                && s.state == state::ACTIVE
+                && !s.response.is_empty()
+            {
+                let r = PayloadReader::new(&s.response);
+                remaining_seen.push(r.f32(mla::response::REMAINING_DISTANCE));
+            }
+            status.is_some_and(|s| s.is_final())
+        },
+        Duration::from_secs(20),
+    )
+    .expect("the move ends");
+    let done = plc.task().status(handle).cloned().expect("status");
+    assert_eq!((done.state, done.code), (state::DONE, 0), "{done:?}");
+    let r = PayloadReader::new(&done.response);
+    assert_eq!(r.u16(mla::response::PROGRESS), 10_000);
+    assert_eq!(r.f32(mla::response::REMAINING_DISTANCE), 0.0);
+    assert!(samples > 20, "{samples} positions sampled during the move");
+    assert!(worst < 0.5, "the TCP left the line by {worst:.3} mm");
+    assert!(
+        remaining_seen.iter().any(|&d| d > 1.0 && d < 130.0),
+        "RemainingDistance while moving: {remaining_seen:?}"
+    );
+    let reached = tcp(&mut plc, 1, 1);
+    assert!(
+        max_deviation(reached, target) < 0.05,
+        "{reached:?} vs {target:?}"
+    );
+}
+
+#[test]
+fn refusals_come_before_the_arm_moves() {
+    let c = Controller::start("mlaerr");
+    let mut plc = c.client();
+    initialize(&mut plc);
+    let home_tcp = tcp(&mut plc, 0, 0);
+    expect_error(
+        &mut plc,
+        &linear(home_tcp, 0, 0, 0, |_| {}),
+        code::ROBOT_DISABLED,
+    );
+    reset_and_enable(&mut plc);
+    let before = actual_joints(&mut plc);
+    let mut far = home_tcp;
+    far[0] = 5000.0;
+    let cases = [
+        (
+            linear(home_tcp, 0, 0, 0, |w| w.set_u8(mla::request::ORI_MODE, 5)),
+            code::INVALID_ORI_MODE,
+        ),
+        (
+            linear(home_tcp, 0, 0, 0, |w| w.set_u8(mla::request::ORI_MODE, 2)),
+            code::ORI_MODE_NOT_SUPPORTED,
+        ),
+        (linear(far, 0, 0, 0, |_| {}), code::TARGET_UNREACHABLE),
+        (
+            linear(home_tcp, 0, 0, 0, |w| {
+                w.set_u16(mla::request::VELOCITY_RATE, 10_001)
+            }),
+            code::INVALID_VELOCITY_RATE,
+        ),
+        (
+            linear(home_tcp, 0, 0, 0, |w| {
+                w.set_f32(mla::request::POSITION_Y, f32::NAN)
+            }),
+            code::INVALID_POSITION,
+        ),
+        (linear(home_tcp, 0, 16, 0, |_| {}), code::INVALID_FRAME_NO),
+        (
+            linear(home_tcp, 0, 0, execution_mode::PARALLEL, |_| {}),
+            code::INVALID_EXECUTION_MODE,
+        ),
+    ];
+    for (request, expected) in cases {
+        expect_error(&mut plc, &request, expected);
+    }
+    assert!(
+        max_deviation(before, actual_joints(&mut plc)) < 1e-6,
+        "nothing moved"
+    );
+}
