@@ -25,6 +25,7 @@ mod conformance {
     mod read_robot_data;
     mod reference_dynamics;
     mod robot_task;
+    mod sequences;
     mod server_log;
     mod sw_limits;
     mod sync;
