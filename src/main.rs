@@ -5,7 +5,8 @@
 //! - `rc status` shows a running controller's services, their cycles and supervision;
 //! - `rc plc PROGRAM.toml` plays the PLC: runs an SRCI program against a running controller;
 //! - `rc demo` starts a controller, runs the embedded demo program against it and stops it;
-//! - `rc bench latency` measures the controller's latencies on this machine.
+//! - `rc bench latency` measures the controller's latencies on this machine;
+//! - `rc bench motion` measures the planner's computing times and move durations.
 
 mod bench;
 mod controller;
@@ -157,6 +158,14 @@ fn main() -> ExitCode {
         } => {
             init_logging("warn");
             with_config(config.as_deref(), |config| bench::latency(config, cycles))
+        }
+        Command::Bench {
+            benchmark: bench::Benchmark::Motion { options, config },
+        } => {
+            init_logging("warn");
+            with_config(config.as_deref(), |config| {
+                bench::motion::run(config, &options)
+            })
         }
     };
     match outcome {

@@ -9,6 +9,7 @@
 
 mod hop;
 mod load;
+pub mod motion;
 mod pipeline;
 mod private_controller;
 mod processing;
@@ -46,6 +47,16 @@ pub enum Benchmark {
         cycles: u32,
         /// Configuration of the controller to measure (default: the embedded
         /// config/default.toml); it runs under a private instance name and port.
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+    },
+    /// Inverse kinematics and planning times, and the planner's move durations against the
+    /// time-optimal ones of ruckig (joint moves) and toppra (linear moves).
+    Motion {
+        #[command(flatten)]
+        options: motion::Options,
+        /// Configuration of the robot and the planner (default: the embedded
+        /// config/default.toml).
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
     },

@@ -1,0 +1,322 @@
+//! `rc bench motion`: the motion planner's computing times and how close its moves come to
+//! the time-optimal ones.
+//!
+//! A seeded random problem set on the configured robot (joint moves and straight TCP lines,
+//! rest to rest, at 100 % of every limit; see [`problems`]) is planned by our planner through
+//! its public planning API. The table shows the time per inverse and forward kinematics
+//! solve, per plan of each move type, and the durations of our moves over those of open
+//! reference planners on the same limits and problems: ruckig for joint moves (time-optimal
+//! and jerk-limited), toppra for the lines (time-optimal on the same joint path, without a
+//! jerk limit). The references run in Python (bench/reference.py in a virtual environment
+//! made by bench/setup.sh); without that environment their rows are skipped.
+
+mod exchange;
+mod problems;
+mod report;
+mod timing;
+
+use std::path::PathBuf;
+
+use clap::Args;
+use shared_types::config::Config;
+
+use exchange::{Reference, ReferenceError};
+use problems::{MAX_TURN_RAD, Ours, Problems, Robot};
+use report::{OptimalityRow, TimingRow};
+use timing::{CallTimes, Timings};
+
+/// The options of `rc bench motion`.
+#[derive(Debug, Clone, Args)]
+pub struct Options {
+    /// Joint moves in the problem set; half as many linear moves are drawn.
+    #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(2..=100_000))]
+    pub problems: u32,
+    /// Seed of the problem set.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Python of the reference environment (made by bench/setup.sh).
+    #[arg(
+        long,
+        value_name = "FILE",
+        default_value = "target/bench-venv/bin/python"
+    )]
+    pub python: PathBuf,
+    /// Directory for the problem set, the reference script and its result.
+    #[arg(long, value_name = "DIR", default_value = "target/bench-motion")]
+    pub out: PathBuf,
+}
+
+/// Everything `rc bench motion` found.
+struct MotionResults {
+    robot: Robot,
+    problems: Problems,
+    timings: Timings,
+    reference: Result<Reference, ReferenceError>,
+}
+
+/// Runs `rc bench motion` on the robot of `config`; `Ok(false)` if the reference planners
+/// were there but failed.
+pub fn run(config: &Config, options: &Options) -> anyhow::Result<bool> {
+    let results = measure(config, options, true)?;
+    print!("{}", render(&results, options));
+    let failed = matches!(
+        &results.reference,
+        Err(e) if !matches!(e, ReferenceError::NoEnvironment(_))
+    );
+    Ok(!failed)
+}
+
+/// Draws and plans the problems, times the planner and, with `with_reference`, asks the
+/// reference planners.
+fn measure(
+    config: &Config,
+    options: &Options,
+    with_reference: bool,
+) -> anyhow::Result<MotionResults> {
+    let robot = Robot::from_config(config)?;
+    let joints = options.problems as usize;
+    let lines = joints / 2;
+    super::progress(&format!(
+        "drawing and planning {joints} joint and {lines} linear moves (seed {})",
+        options.seed
+    ));
+    let problems = Problems::generate(&robot, options.seed, joints, lines)?;
+    super::progress("timing kinematics and planning");
+    let timings = timing::measure(
+        &robot,
+        &problems,
+        options.seed,
+        joints * timing::KINEMATICS_PER_PROBLEM,
+    );
+    let reference = if with_reference {
+        super::progress(&format!(
+            "reference planners ({} in {})",
+            options.python.display(),
+            options.out.display()
+        ));
+        exchange::run_reference(&options.python, &options.out, &robot, &problems)
+    } else {
+        Err(ReferenceError::NoEnvironment(options.python.clone()))
+    };
+    Ok(MotionResults {
+        robot,
+        problems,
+        timings,
+        reference,
+    })
+}
+
+fn render(results: &MotionResults, options: &Options) -> String {
+    let p = &results.problems;
+    let refused: usize = p.refused.values().sum();
+    let title = vec![format!(
+        "rc bench motion: {}, seed {}, {} joint moves, {} linear moves ({refused} more \
+         drawn and refused by the planner), override reserve {}",
+        results.robot.name,
+        p.seed,
+        p.joint.len(),
+        p.linear.len(),
+        results.robot.reserve
+    )];
+    report::render(
+        &title,
+        &timing_rows(&results.timings),
+        &optimality_rows(results),
+        &notes(results, options),
+    )
+}
+
+fn timing_rows(t: &Timings) -> Vec<TimingRow> {
+    let measured = |label: &str, micros: bool, calls: &CallTimes| TimingRow::Measured {
+        label: label.to_string(),
+        micros,
+        summary: calls.each.summary(),
+        per_second: calls.per_second,
+    };
+    vec![
+        measured(
+            "IK, all 8 branches (ArmGeometry::inverse)",
+            false,
+            &t.ik_all,
+        ),
+        measured("IK, one branch (ArmGeometry::inverse_in)", false, &t.ik_one),
+        measured("FK (Kinematics::flange)", false, &t.fk),
+        measured("plan MoveAxes (JointMove::plan)", true, &t.plan_joint),
+        measured("plan MoveLinear (LinearMove::plan)", true, &t.plan_linear),
+        TimingRow::NotAvailable {
+            label: "solver (clarabel QP)".into(),
+            why: "n/a (no QP solver yet)".into(),
+        },
+    ]
+}
+
+fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
+    let p = &results.problems;
+    let joint: Vec<Ours> = p.joint.iter().map(|c| c.ours).collect();
+    let linear: Vec<Ours> = p.linear.iter().map(|c| c.ours).collect();
+    let reserve = results.robot.reserve;
+    let as_planned = |ours: &[Ours]| ours.iter().map(|o| o.as_planned_s).collect::<Vec<_>>();
+    let no_reserve = |ours: &[Ours]| ours.iter().map(|o| o.no_reserve_s).collect::<Vec<_>>();
+    let row = |label: String, ratio: &dyn Fn(&Reference) -> Option<report::RatioStats>| {
+        let ratios = match &results.reference {
+            Ok(r) => {
+                ratio(r).ok_or_else(|| "the reference planner failed on every problem".to_string())
+            }
+            Err(ReferenceError::NoEnvironment(_)) => Err("no reference environment".into()),
+            Err(_) => Err("the reference planners failed (see below)".into()),
+        };
+        OptimalityRow { label, ratios }
+    };
+    let of = report::RatioStats::of;
+    vec![
+        row(
+            format!("MoveAxes / ruckig, as planned (reserve {reserve})"),
+            &|r| of(&as_planned(&joint), &r.joint),
+        ),
+        row("MoveAxes / ruckig, without reserve".into(), &|r| {
+            of(&no_reserve(&joint), &r.joint)
+        }),
+        row(
+            format!("MoveLinear / toppra, as planned (reserve {reserve})"),
+            &|r| of(&linear_as_planned(p), &r.linear),
+        ),
+        row("MoveLinear / toppra, without reserve".into(), &|r| {
+            of(&no_reserve(&linear), &r.linear)
+        }),
+        row("scale: ruckig / toppra on the MoveAxes".into(), &|r| {
+            of(&r.joint, &r.joint_toppra)
+        }),
+    ]
+}
+
+/// Our durations of the linear moves as planned.
+fn linear_as_planned(problems: &Problems) -> Vec<f64> {
+    problems
+        .linear
+        .iter()
+        .map(|c| c.ours.as_planned_s)
+        .collect()
+}
+
+fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
+    let p = &results.problems;
+    let mut notes = vec![
+        format!(
+            "timing: each call timed alone (the clock's own tens of ns included), on {} random \
+             joint vectors and {} repeats of every plan; calls/s from one untimed loop of the \
+             same calls",
+            p.joint.len() * timing::KINEMATICS_PER_PROBLEM,
+            timing::PLAN_REPEATS
+        ),
+        format!(
+            "problems: joint moves from a point within the joint limits a log-uniform 1-100 % \
+             of the way to another; lines of 1-60 cm in a random direction with a turn of up \
+             to {MAX_TURN_RAD} rad per roll/pitch/yaw angle, from joints within the limits; \
+             all rest to rest at 100 % of every limit"
+        ),
+        "ratio = our duration / reference duration; >1.02: misses the 2 % target; <1.0: \
+         faster than the reference"
+            .to_string(),
+        "MoveAxes: ruckig is time-optimal for the same per-joint v/a/j limits (time-\
+         synchronised, free to leave the straight joint line we keep), so <1.0 would mean \
+         our limits are broken; the override reserve (acceleration held back so the override \
+         may change mid-move) makes ours slower by design"
+            .to_string(),
+        "MoveLinear: toppra times the same joint path (our samples, cubic spline) under the \
+         same joint v/a and TCP v/a limits but has no jerk limit: a lower bound, so ours is \
+         expected slower; <1.0 would mean ours breaks a v/a limit"
+            .to_string(),
+        "scale: ruckig's jerk-limited optimum over toppra's v/a-only optimum of the same \
+         joint moves (straight joint lines): what the jerk limit alone costs on such moves, \
+         so the part of the MoveLinear ratio beyond it comes from our planner"
+            .to_string(),
+    ];
+    if !p.refused.is_empty() {
+        let reasons: Vec<String> = p.refused.iter().map(|(r, n)| format!("{r} {n}")).collect();
+        notes.push(format!(
+            "line draws refused by the planner: {}",
+            reasons.join(", ")
+        ));
+    }
+    if let Ok(r) = &results.reference
+        && let Some(worst) = report::RatioStats::of(&linear_as_planned(p), &r.linear)
+        && let Some(case) = p.linear.get(worst.worst)
+    {
+        notes.push(format!(
+            "slowest MoveLinear against toppra: [[linear]] {} of {PROBLEMS}, {:.1} mm, ours \
+             {:.3} s, toppra {:.3} s",
+            worst.worst,
+            case.length_m * 1e3,
+            case.ours.as_planned_s,
+            r.linear[worst.worst],
+            PROBLEMS = exchange::PROBLEMS_FILE,
+        ));
+    }
+    match &results.reference {
+        Ok(r) => {
+            let failed = |d: &[f64]| d.iter().filter(|x| !x.is_finite()).count();
+            notes.push(format!(
+                "reference: ruckig {} ({:.3} s for all), toppra {} ({:.2} s for the lines); failed: \
+                 ruckig {}, toppra {}; files in {}",
+                r.ruckig_version,
+                r.ruckig_s,
+                r.toppra_version,
+                r.toppra_s,
+                failed(&r.joint),
+                failed(&r.linear),
+                options.out.display()
+            ));
+        }
+        Err(ReferenceError::NoEnvironment(python)) => notes.push(format!(
+            "optimality skipped: no Python at {}; create the reference environment with \
+             `bash bench/setup.sh` in the repository (pip install of ruckig and toppra into \
+             target/bench-venv), or point --python at one",
+            python.display()
+        )),
+        Err(e) => notes.push(format!("optimality skipped: {e}")),
+    }
+    notes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_rust_side_runs_and_renders_without_python() {
+        let config = Config::load(None).unwrap();
+        let options = Options {
+            problems: 5,
+            seed: 3,
+            python: PathBuf::from("/nonexistent/python"),
+            out: std::env::temp_dir().join("rc-bench-motion-smoke"),
+        };
+        let results = measure(&config, &options, false).unwrap();
+        let p = &results.problems;
+        assert_eq!((p.joint.len(), p.linear.len()), (5, 2));
+        for ours in p
+            .joint
+            .iter()
+            .map(|c| c.ours)
+            .chain(p.linear.iter().map(|c| c.ours))
+        {
+            for d in [ours.as_planned_s, ours.no_reserve_s] {
+                assert!(d.is_finite() && d > 0.0, "{ours:?}");
+            }
+        }
+        let t = &results.timings;
+        assert_eq!(t.ik_all.each.count(), 5 * timing::KINEMATICS_PER_PROBLEM);
+        assert_eq!(t.plan_linear.each.count(), 2 * timing::PLAN_REPEATS);
+        let text = render(&results, &options);
+        for expected in [
+            "IK, all 8 branches",
+            "plan MoveLinear",
+            "n/a (no QP solver yet)",
+            "MoveAxes / ruckig, as planned",
+            "skipped: no reference environment",
+            "bash bench/setup.sh",
+        ] {
+            assert!(text.contains(expected), "{expected} missing in\n{text}");
+        }
+    }
+}

@@ -1,0 +1,276 @@
+//! The exchange with the Python reference planners (bench/reference.py): the problem set and
+//! the limits out, one reference duration per problem back, both as TOML (the `toml` crate
+//! here, the standard library's `tomllib` there). The file layout is in bench/README.md.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use toml::{Table, Value};
+
+use super::problems::{Problems, Robot};
+
+/// The reference script, embedded so that the binary runs it from any directory.
+pub const SCRIPT: &str = include_str!("../../../bench/reference.py");
+/// File names in the output directory.
+pub const PROBLEMS_FILE: &str = "problems.toml";
+pub const SCRIPT_FILE: &str = "reference.py";
+pub const REFERENCE_FILE: &str = "reference.toml";
+
+/// Why the reference durations could not be had.
+#[derive(Debug, thiserror::Error)]
+pub enum ReferenceError {
+    #[error("no reference environment at {0}")]
+    NoEnvironment(PathBuf),
+    #[error("cannot write {path}: {source}")]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("cannot start {python}: {source}")]
+    Spawn {
+        python: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("the reference script failed ({status}): {stderr}")]
+    Script { status: String, stderr: String },
+    #[error("cannot read {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("the reference result is not valid: {0}")]
+    Invalid(String),
+}
+
+/// What the reference planners answered.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reference {
+    pub ruckig_version: String,
+    pub toppra_version: String,
+    /// Wall time of all ruckig and all toppra solves, s.
+    pub ruckig_s: f64,
+    pub toppra_s: f64,
+    /// One duration (s) per joint move, NaN where ruckig failed.
+    pub joint: Vec<f64>,
+    /// One duration (s) per linear move, NaN where toppra failed.
+    pub linear: Vec<f64>,
+    /// toppra's duration (s) of the straight joint line of every joint move, without a jerk
+    /// limit: next to ruckig's, the cost of the jerk limit.
+    pub joint_toppra: Vec<f64>,
+}
+
+fn floats(values: impl IntoIterator<Item = f64>) -> Value {
+    Value::Array(values.into_iter().map(Value::Float).collect())
+}
+
+fn table(entries: impl IntoIterator<Item = (&'static str, Value)>) -> Value {
+    Value::Table(
+        entries
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect(),
+    )
+}
+
+/// The problem file: the limits the planner used (rad, m) and every problem.
+pub fn problems_toml(robot: &Robot, problems: &Problems) -> String {
+    let l = &robot.limits;
+    let mut root = Table::new();
+    root.insert("robot".into(), Value::String(robot.name.clone()));
+    root.insert("seed".into(), Value::String(problems.seed.to_string()));
+    root.insert("override_reserve".into(), Value::Float(robot.reserve));
+    root.insert(
+        "joint_limits".into(),
+        table([
+            ("min", floats(l.min)),
+            ("max", floats(l.max)),
+            ("velocity", floats(l.velocity)),
+            ("acceleration", floats(l.acceleration)),
+            ("jerk", floats(l.jerk)),
+        ]),
+    );
+    root.insert(
+        "tcp_limits".into(),
+        table([
+            ("velocity", Value::Float(robot.tcp.velocity)),
+            ("acceleration", Value::Float(robot.tcp.acceleration)),
+            ("jerk", Value::Float(robot.tcp.jerk)),
+        ]),
+    );
+    let joint = problems.joint.iter().map(|c| {
+        table([
+            ("start", floats(c.start)),
+            ("target", floats(c.target)),
+            ("ours_s", Value::Float(c.ours.as_planned_s)),
+        ])
+    });
+    root.insert("joint".into(), Value::Array(joint.collect()));
+    let linear = problems.linear.iter().map(|c| {
+        table([
+            ("start", floats(c.start)),
+            ("pose", floats(c.pose)),
+            ("length_m", Value::Float(c.length_m)),
+            ("ours_s", Value::Float(c.ours.as_planned_s)),
+            (
+                "path",
+                Value::Array(c.path.iter().map(|q| floats(*q)).collect()),
+            ),
+        ])
+    });
+    root.insert("linear".into(), Value::Array(linear.collect()));
+    root.to_string()
+}
+
+/// Parses the reference result, which must hold `joints` and `lines` durations.
+pub fn parse_reference(text: &str, joints: usize, lines: usize) -> Result<Reference, String> {
+    let root: Table = text.parse().map_err(|e: toml::de::Error| e.to_string())?;
+    let string = |key: &str| {
+        root.get(key)
+            .and_then(Value::as_str)
+            .map(str::to_string)
+            .ok_or_else(|| format!("no string {key}"))
+    };
+    let float = |key: &str| {
+        root.get(key)
+            .and_then(Value::as_float)
+            .ok_or_else(|| format!("no number {key}"))
+    };
+    let durations = |key: &str, expected: usize| -> Result<Vec<f64>, String> {
+        let values = root
+            .get(key)
+            .and_then(Value::as_array)
+            .ok_or_else(|| format!("no array {key}"))?
+            .iter()
+            .map(|v| {
+                v.as_float()
+                    .ok_or_else(|| format!("{key}: {v} is no number"))
+            })
+            .collect::<Result<Vec<f64>, String>>()?;
+        if values.len() != expected {
+            return Err(format!(
+                "{key}: {} durations for {expected} problems",
+                values.len()
+            ));
+        }
+        Ok(values)
+    };
+    Ok(Reference {
+        ruckig_version: string("ruckig")?,
+        toppra_version: string("toppra")?,
+        ruckig_s: float("ruckig_seconds")?,
+        toppra_s: float("toppra_seconds")?,
+        joint: durations("joint", joints)?,
+        linear: durations("linear", lines)?,
+        joint_toppra: durations("joint_toppra", joints)?,
+    })
+}
+
+/// Writes the problem file and the script into `dir`, runs the script with `python` and
+/// reads its answer.
+pub fn run_reference(
+    python: &Path,
+    dir: &Path,
+    robot: &Robot,
+    problems: &Problems,
+) -> Result<Reference, ReferenceError> {
+    if !python.exists() {
+        return Err(ReferenceError::NoEnvironment(python.to_path_buf()));
+    }
+    let write = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::create_dir_all(dir)
+            .and_then(|()| std::fs::write(&path, text))
+            .map_err(|source| ReferenceError::Write { path, source })
+    };
+    write(PROBLEMS_FILE, &problems_toml(robot, problems))?;
+    write(SCRIPT_FILE, SCRIPT)?;
+    let result = dir.join(REFERENCE_FILE);
+    // A result of an earlier run must not pass for this one's.
+    let _ = std::fs::remove_file(&result);
+    let output = Command::new(python)
+        .arg(dir.join(SCRIPT_FILE))
+        .arg(dir.join(PROBLEMS_FILE))
+        .arg(&result)
+        .output()
+        .map_err(|source| ReferenceError::Spawn {
+            python: python.to_path_buf(),
+            source,
+        })?;
+    if !output.status.success() {
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        // The last lines carry the exception.
+        let tail: Vec<&str> = stderr.lines().rev().take(3).collect();
+        return Err(ReferenceError::Script {
+            status: output.status.to_string(),
+            stderr: tail.into_iter().rev().collect::<Vec<_>>().join(" | "),
+        });
+    }
+    let text = std::fs::read_to_string(&result).map_err(|source| ReferenceError::Read {
+        path: result.clone(),
+        source,
+    })?;
+    parse_reference(&text, problems.joint.len(), problems.linear.len())
+        .map_err(ReferenceError::Invalid)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::motion::problems::Robot;
+    use shared_types::config::Config;
+
+    #[test]
+    fn the_problem_file_holds_the_limits_and_every_problem() {
+        let robot = Robot::from_config(&Config::load(None).unwrap()).unwrap();
+        let problems = Problems::generate(&robot, 5, 3, 1).unwrap();
+        let text = problems_toml(&robot, &problems);
+        let root: Table = text.parse().unwrap();
+        let velocity = root["joint_limits"]["velocity"].as_array().unwrap();
+        assert_eq!(velocity[0].as_float(), Some(robot.limits.velocity[0]));
+        assert_eq!(
+            root["tcp_limits"]["acceleration"].as_float(),
+            Some(robot.tcp.acceleration)
+        );
+        let joint = root["joint"].as_array().unwrap();
+        assert_eq!(joint.len(), 3);
+        // Floats survive the round trip exactly.
+        assert_eq!(
+            joint[2]["target"][4].as_float(),
+            Some(problems.joint[2].target[4])
+        );
+        let path = root["linear"][0]["path"].as_array().unwrap();
+        assert_eq!(path.len(), problems.linear[0].path.len());
+    }
+
+    const RESULT: &str = "ruckig = \"0.19.4\"\ntoppra = \"0.6.10\"\nruckig_seconds = 0.5\n\
+                          toppra_seconds = 2.0\njoint = [1.5, nan]\nlinear = [0.25]\n\
+                          joint_toppra = [1.0, 1.25]\n";
+
+    #[test]
+    fn the_reference_result_is_read_with_its_failures() {
+        let r = parse_reference(RESULT, 2, 1).unwrap();
+        assert_eq!(r.ruckig_version, "0.19.4");
+        assert_eq!(r.joint[0], 1.5);
+        assert!(r.joint[1].is_nan());
+        assert_eq!(r.linear, [0.25]);
+        assert_eq!(r.toppra_s, 2.0);
+        assert_eq!(r.joint_toppra, [1.0, 1.25]);
+    }
+
+    #[test]
+    fn a_result_for_other_problems_is_refused() {
+        let e = parse_reference(RESULT, 3, 1).unwrap_err();
+        assert!(e.contains("2 durations for 3 problems"), "{e}");
+        assert!(parse_reference("joint = [1.0]", 1, 0).is_err());
+    }
+
+    #[test]
+    fn a_missing_environment_is_reported_before_anything_is_written() {
+        let robot = Robot::from_config(&Config::load(None).unwrap()).unwrap();
+        let problems = Problems::generate(&robot, 5, 1, 1).unwrap();
+        let dir = std::env::temp_dir().join(format!("rc-motion-test-{}", std::process::id()));
+        let e = run_reference(Path::new("/nonexistent/python"), &dir, &robot, &problems);
+        assert!(matches!(e, Err(ReferenceError::NoEnvironment(_))), "{e:?}");
+        assert!(!dir.exists());
+    }
+}

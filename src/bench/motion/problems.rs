@@ -1,0 +1,430 @@
+//! The seeded random problem set of `rc bench motion` and our planner's answers to it.
+//!
+//! Joint moves go rest to rest from a start drawn uniformly within the joint limits towards
+//! another such point, a log-uniform share of the way (1 % to 100 %), so short moves that
+//! reach neither the velocity nor the acceleration limit are as common as long ones. Linear
+//! moves start from joints drawn within the limits and move the TCP (the flange, no tool) by
+//! a log-uniform 1 cm to 60 cm in a random direction while turning it by a random rotation of
+//! up to [`MAX_TURN_RAD`] per roll/pitch/yaw angle; draws the planner refuses (out of reach,
+//! near a singularity, beyond a joint limit) are replaced by new ones and counted.
+//!
+//! Everything here is pure: the same seed gives the same problems and the same durations.
+
+use std::collections::BTreeMap;
+
+use planner::joint_move::{JointMove, MoveError, Plan};
+use planner::kinematics::{ArmGeometry, GeometryError, Kinematics};
+use planner::linear_move::{Arm, LinearError, LinearMove, LinearPlan, SAMPLES, TcpLimits};
+use shared_types::config::{Config, JointLimitsRad};
+use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind};
+use shared_types::pose;
+
+/// Shortest joint move, as a share of the way to the drawn point.
+const MIN_JOINT_SHARE: f64 = 0.01;
+/// Shortest and longest TCP line, m.
+const LINE_LENGTH_M: (f64, f64) = (0.01, 0.6);
+/// Largest roll, pitch and yaw of the reorientation of a line, rad.
+pub const MAX_TURN_RAD: f64 = 0.4;
+/// Draws per linear move asked for before the set is given up as unreachable.
+const DRAWS_PER_LINE: usize = 200;
+
+/// Why the problem set cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum ProblemError {
+    #[error("the robot's kinematics has no analytic inverse: {0}")]
+    NoInverse(#[from] GeometryError),
+    #[error("the planner refused a problem it accepted before: {0}")]
+    Replan(String),
+    #[error("only {found} of {wanted} linear moves found in {draws} draws")]
+    TooFewLines {
+        found: usize,
+        wanted: usize,
+        draws: usize,
+    },
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): a small, fast generator, reproducible on every
+/// platform; statistical quality far beyond what drawing test problems needs.
+#[derive(Debug, Clone)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [lo, hi).
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        // The top 53 bits: every value exactly representable.
+        let unit = (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+        lo + (hi - lo) * unit
+    }
+
+    /// Log-uniform in [lo, hi) (both positive).
+    pub fn log_uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.uniform(lo.ln(), hi.ln()).exp()
+    }
+
+    /// Joints uniformly within `limits`.
+    pub fn joints(&mut self, limits: &JointLimitsRad) -> [f64; AXES] {
+        core::array::from_fn(|i| self.uniform(limits.min[i], limits.max[i]))
+    }
+}
+
+/// The robot as the planner sees it.
+#[derive(Debug, Clone)]
+pub struct Robot {
+    pub name: String,
+    pub limits: JointLimitsRad,
+    pub tcp: TcpLimits,
+    pub kinematics: Kinematics,
+    pub geometry: ArmGeometry,
+    /// Share of the acceleration the planner holds back for override changes.
+    pub reserve: f64,
+}
+
+impl Robot {
+    /// The robot and the planner settings of `config`.
+    pub fn from_config(config: &Config) -> Result<Self, ProblemError> {
+        Ok(Self {
+            name: config.robot.name.clone(),
+            limits: config.robot.limits_rad(),
+            tcp: TcpLimits::from_config(&config.robot.cartesian),
+            kinematics: Kinematics::new(&config.robot.kinematics),
+            geometry: ArmGeometry::new(&config.robot.kinematics)?,
+            reserve: config.main.planner.override_reserve,
+        })
+    }
+
+    pub fn arm(&self) -> Arm<'_> {
+        Arm {
+            kinematics: &self.kinematics,
+            geometry: &self.geometry,
+            joints: &self.limits,
+            tcp: &self.tcp,
+        }
+    }
+}
+
+/// Durations (s) of our plan of one problem.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ours {
+    /// As the planner runs it: with the configured override reserve.
+    pub as_planned_s: f64,
+    /// With no override reserve: the limits alone.
+    pub no_reserve_s: f64,
+}
+
+/// One rest-to-rest joint move (MoveAxes at 100 % of every limit).
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointCase {
+    pub start: [f64; AXES],
+    pub target: [f64; AXES],
+    pub ours: Ours,
+}
+
+impl JointCase {
+    pub fn command(target: [f64; AXES]) -> MotionCommand {
+        let mut command = MotionCommand::new(MotionCommandKind::MoveAxes);
+        command.joints_rad = target;
+        command
+    }
+
+    /// Our plan with the override reserve `reserve`; `None` if the arm is already there.
+    pub fn plan(
+        robot: &Robot,
+        start: [f64; AXES],
+        command: &MotionCommand,
+        reserve: f64,
+    ) -> Result<Option<JointMove>, MoveError> {
+        Ok(
+            match JointMove::plan(start, command, &robot.limits, reserve)? {
+                Plan::Move(m) => Some(m),
+                Plan::Stationary => None,
+            },
+        )
+    }
+}
+
+/// One rest-to-rest straight line of the TCP (MoveLinear at 100 % of every limit).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearCase {
+    pub start: [f64; AXES],
+    /// Target TCP pose `[x, y, z, Rx, Ry, Rz]` (m, rad) in the base frame.
+    pub pose: [f64; 6],
+    pub length_m: f64,
+    /// The joints of our path at `s = k / SAMPLES`, `k = 0..=SAMPLES`.
+    pub path: Vec<[f64; AXES]>,
+    pub ours: Ours,
+}
+
+impl LinearCase {
+    pub fn command(pose: [f64; 6]) -> MotionCommand {
+        let mut command = MotionCommand::new(MotionCommandKind::MoveLinear);
+        command.pose = pose;
+        command
+    }
+
+    /// Our plan with the override reserve `reserve`; `None` if the TCP is already there.
+    pub fn plan(
+        robot: &Robot,
+        start: [f64; AXES],
+        command: &MotionCommand,
+        reserve: f64,
+    ) -> Result<Option<LinearMove>, LinearError> {
+        Ok(
+            match LinearMove::plan(start, command, &robot.arm(), reserve)? {
+                LinearPlan::Move(m) => Some(m),
+                LinearPlan::Stationary(_) => None,
+            },
+        )
+    }
+}
+
+/// The problem set with our planner's answers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Problems {
+    pub seed: u64,
+    pub joint: Vec<JointCase>,
+    pub linear: Vec<LinearCase>,
+    /// Linear draws the planner refused, by reason.
+    pub refused: BTreeMap<&'static str, usize>,
+}
+
+impl Problems {
+    /// `joints` joint moves and `lines` linear moves drawn with `seed`, planned by our
+    /// planner for `robot`.
+    pub fn generate(
+        robot: &Robot,
+        seed: u64,
+        joints: usize,
+        lines: usize,
+    ) -> Result<Self, ProblemError> {
+        let mut rng = Rng::new(seed);
+        let mut problems = Self {
+            seed,
+            joint: Vec::with_capacity(joints),
+            linear: Vec::with_capacity(lines),
+            refused: BTreeMap::new(),
+        };
+        while problems.joint.len() < joints {
+            if let Some(case) = draw_joint_case(robot, &mut rng)? {
+                problems.joint.push(case);
+            }
+        }
+        let draws = lines * DRAWS_PER_LINE;
+        for _ in 0..draws {
+            if problems.linear.len() == lines {
+                break;
+            }
+            match draw_linear_case(robot, &mut rng)? {
+                Ok(case) => problems.linear.push(case),
+                Err(reason) => *problems.refused.entry(reason).or_default() += 1,
+            }
+        }
+        if problems.linear.len() < lines {
+            return Err(ProblemError::TooFewLines {
+                found: problems.linear.len(),
+                wanted: lines,
+                draws,
+            });
+        }
+        Ok(problems)
+    }
+}
+
+/// One joint move, `None` for a draw too short to move.
+fn draw_joint_case(robot: &Robot, rng: &mut Rng) -> Result<Option<JointCase>, ProblemError> {
+    let start = rng.joints(&robot.limits);
+    let towards = rng.joints(&robot.limits);
+    let share = rng.log_uniform(MIN_JOINT_SHARE, 1.0);
+    let target = core::array::from_fn(|i| start[i] + share * (towards[i] - start[i]));
+    let command = JointCase::command(target);
+    let replan = |e: MoveError| ProblemError::Replan(e.to_string());
+    let Some(planned) = JointCase::plan(robot, start, &command, robot.reserve).map_err(replan)?
+    else {
+        return Ok(None);
+    };
+    let no_reserve = JointCase::plan(robot, start, &command, 0.0)
+        .map_err(replan)?
+        .ok_or_else(|| ProblemError::Replan("stationary without reserve".into()))?;
+    Ok(Some(JointCase {
+        start,
+        target,
+        ours: Ours {
+            as_planned_s: planned.timing().profile.duration(),
+            no_reserve_s: no_reserve.timing().profile.duration(),
+        },
+    }))
+}
+
+/// One linear move, or the reason the planner refused the draw.
+fn draw_linear_case(
+    robot: &Robot,
+    rng: &mut Rng,
+) -> Result<Result<LinearCase, &'static str>, ProblemError> {
+    let start = rng.joints(&robot.limits);
+    let tcp = robot.kinematics.flange(&start);
+    let direction = unit_vector(rng);
+    let length_m = rng.log_uniform(LINE_LENGTH_M.0, LINE_LENGTH_M.1);
+    let turn = pose::isometry([
+        0.0,
+        0.0,
+        0.0,
+        rng.uniform(-MAX_TURN_RAD, MAX_TURN_RAD),
+        rng.uniform(-MAX_TURN_RAD, MAX_TURN_RAD),
+        rng.uniform(-MAX_TURN_RAD, MAX_TURN_RAD),
+    ]);
+    let at = pose::pose(&tcp);
+    let turned = pose::pose(&(turn * tcp));
+    let target = [
+        at[0] + length_m * direction[0],
+        at[1] + length_m * direction[1],
+        at[2] + length_m * direction[2],
+        turned[3],
+        turned[4],
+        turned[5],
+    ];
+    let command = LinearCase::command(target);
+    let planned = match LinearCase::plan(robot, start, &command, robot.reserve) {
+        Ok(Some(m)) => m,
+        Ok(None) => return Ok(Err("no motion")),
+        Err(e) => return Ok(Err(refusal(&e))),
+    };
+    let replan = |e: LinearError| ProblemError::Replan(e.to_string());
+    let no_reserve = LinearCase::plan(robot, start, &command, 0.0)
+        .map_err(replan)?
+        .ok_or_else(|| ProblemError::Replan("stationary without reserve".into()))?;
+    let mut path = Vec::with_capacity(SAMPLES + 1);
+    let mut previous = start;
+    for k in 0..=SAMPLES {
+        previous = planned
+            .point(k as f64 / SAMPLES as f64, 0.0, 0.0, &previous)
+            .q;
+        path.push(previous);
+    }
+    Ok(Ok(LinearCase {
+        start,
+        pose: target,
+        length_m,
+        path,
+        ours: Ours {
+            as_planned_s: planned.timing().profile.duration(),
+            no_reserve_s: no_reserve.timing().profile.duration(),
+        },
+    }))
+}
+
+/// A direction uniformly on the unit sphere (rejection sampling in the cube).
+fn unit_vector(rng: &mut Rng) -> [f64; 3] {
+    loop {
+        let v = [(); 3].map(|()| rng.uniform(-1.0, 1.0));
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        // Inside the ball, and away from the centre, where rounding would bias the direction.
+        if (0.1..=1.0).contains(&norm) {
+            return v.map(|x| x / norm);
+        }
+    }
+}
+
+/// The kind of a refusal, for the count per reason.
+fn refusal(error: &LinearError) -> &'static str {
+    match error {
+        LinearError::Unreachable { .. } => "out of reach",
+        LinearError::Singular { .. } => "singular",
+        LinearError::Move(
+            MoveError::BelowLowerLimit { .. } | MoveError::AboveUpperLimit { .. },
+        ) => "joint limit",
+        _ => "other",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn robot() -> Robot {
+        Robot::from_config(&Config::load(None).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn the_generator_is_reproducible_and_in_range() {
+        let (mut a, mut b) = (Rng::new(7), Rng::new(7));
+        for _ in 0..1000 {
+            let x = a.uniform(-2.0, 3.0);
+            assert_eq!(x, b.uniform(-2.0, 3.0));
+            assert!((-2.0..3.0).contains(&x));
+            let y = a.log_uniform(0.01, 0.6);
+            b.log_uniform(0.01, 0.6);
+            assert!((0.01..=0.6).contains(&y), "{y}");
+        }
+        assert_ne!(Rng::new(1).next_u64(), Rng::new(2).next_u64());
+    }
+
+    #[test]
+    fn unit_vectors_have_unit_length() {
+        let mut rng = Rng::new(3);
+        for _ in 0..100 {
+            let v = unit_vector(&mut rng);
+            assert!((v.iter().map(|x| x * x).sum::<f64>() - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_seed_gives_the_same_problems_and_the_planner_accepts_them() {
+        let robot = robot();
+        let a = Problems::generate(&robot, 11, 4, 2).unwrap();
+        assert_eq!(a, Problems::generate(&robot, 11, 4, 2).unwrap());
+        assert_ne!(a.joint, Problems::generate(&robot, 12, 4, 2).unwrap().joint);
+        assert_eq!((a.joint.len(), a.linear.len()), (4, 2));
+        for case in &a.joint {
+            for i in 0..AXES {
+                assert!(robot.limits.min[i] <= case.target[i]);
+                assert!(case.target[i] <= robot.limits.max[i]);
+            }
+            // The override reserve only ever slows a move down.
+            assert!(case.ours.as_planned_s >= case.ours.no_reserve_s);
+        }
+        for case in &a.linear {
+            assert_eq!(case.path.len(), SAMPLES + 1);
+            for (q, start) in case.path[0].iter().zip(&case.start) {
+                assert!(
+                    (q - start).abs() < 1e-9,
+                    "{:?} {:?}",
+                    case.path[0],
+                    case.start
+                );
+            }
+            // The path ends where the TCP reaches the target pose.
+            let end = pose::pose(&robot.kinematics.flange(case.path.last().unwrap()));
+            for (reached, wanted) in end.iter().zip(&case.pose).take(3) {
+                assert!((reached - wanted).abs() < 1e-9, "{end:?} {:?}", case.pose);
+            }
+            assert!(case.ours.as_planned_s >= case.ours.no_reserve_s);
+        }
+    }
+
+    #[test]
+    fn refusals_are_counted_by_reason() {
+        let e = LinearError::Move(MoveError::AboveUpperLimit {
+            axis: 1,
+            target_rad: 5.0,
+            limit_rad: 4.0,
+        });
+        assert_eq!(refusal(&e), "joint limit");
+        assert_eq!(refusal(&LinearError::Singular { s: 0.5 }), "singular");
+        assert_eq!(
+            refusal(&LinearError::Unreachable { s: 0.5 }),
+            "out of reach"
+        );
+        assert_eq!(refusal(&LinearError::TurnMismatch), "other");
+    }
+}
