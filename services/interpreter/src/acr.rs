@@ -133,6 +133,11 @@ impl Acr {
         &e.buffer[..e.len]
     }
 
+    /// The reassembled message of the live command `cmd_id`.
+    pub fn message_of(&self, cmd_id: u16) -> Option<&[u8]> {
+        self.find(cmd_id).map(|slot| self.message(slot))
+    }
+
     /// The CmdID of `slot`.
     pub fn cmd_id(&self, slot: usize) -> u16 {
         self.entries[slot].cmd_id

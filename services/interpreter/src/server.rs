@@ -162,6 +162,8 @@ pub struct Server {
     pub(crate) supervision: Option<(SupervisionStatus, u64)>,
     /// Requests to the orchestrator sent so far.
     supervision_requests: u64,
+    /// The continuous read being answered now (its DONE becomes ACTIVE).
+    pub(crate) continuous_answer: Option<u16>,
     /// StepMode of EnableRobot: 0 off, 1 BLENDING, 2 EXACT_STOP (both hold after each move,
     /// as this controller stops exactly anyway).
     pub(crate) step_mode: u8,
@@ -205,6 +207,7 @@ impl Server {
             sequences: Sequences::default(),
             supervision: None,
             supervision_requests: 0,
+            continuous_answer: None,
             step_mode: 0,
             live: Vec::with_capacity(acr_length),
             motion: MotionLink::new(issuer, acr_length + 8, settings.planner_timeout_ms),
@@ -441,6 +444,7 @@ impl Server {
         self.progress_enable(now, fx);
         self.continue_group_reset(now, fx);
         if self.telegram_state == ts::INITIALIZED {
+            self.refresh_continuous(now, fx);
             self.supervise_sync(now, fx);
             self.refresh_configuration(now);
         }

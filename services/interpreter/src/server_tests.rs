@@ -1413,3 +1413,47 @@ fn the_tool_and_frame_of_an_accepted_move_become_the_ones_in_use() {
         (3, 2)
     );
 }
+
+#[test]
+fn a_continuous_read_answers_again_until_it_is_stopped() {
+    use t::read_actual_position as rap;
+    let (mut server, mut plc, _fx) = session(DriveState::Holding);
+    let continuous = request(rap::TYPE, 3, rap::request::LEN);
+    plc.command(&mut server, 6, NEW, &continuous);
+    let answers = |plc: &Plc| {
+        plc.responses
+            .iter()
+            .filter(|(id, _)| *id == 6)
+            .map(|(_, b)| ResponseHeader::decode(b).state)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(answers(&plc), [state::ACTIVE]);
+    // 8 ms per telegram: 15 idle telegrams are 120 ms, one more answer.
+    for _ in 0..15 {
+        plc.idle(&mut server);
+    }
+    assert_eq!(answers(&plc), [state::ACTIVE, state::ACTIVE]);
+    let (_, last) = plc.responses.iter().rev().find(|(id, _)| *id == 6).unwrap();
+    assert_eq!(last.len(), rap::response::LEN, "a full position every time");
+
+    // STOP_PARALLEL_CONTINUOUS_TRIGGER as a new command ends it.
+    plc.command(
+        &mut server,
+        7,
+        NEW,
+        &request(rap::TYPE, 9, rap::request::LEN),
+    );
+    assert_eq!(plc.last_response(7).unwrap().state, state::DONE);
+    assert_eq!(plc.last_response(6).unwrap().state, state::DONE);
+    // Other functions do not run continuously.
+    plc.command(
+        &mut server,
+        8,
+        NEW,
+        &request(t::group_reset::TYPE, 3, t::group_reset::request::LEN),
+    );
+    assert_eq!(
+        plc.last_response(8).unwrap().code,
+        code::INVALID_EXECUTION_MODE
+    );
+}

@@ -16,6 +16,7 @@ use shared_types::srci::tables as t;
 
 use shared_types::ipc::MotionCommandKind;
 
+use crate::acr::MESSAGE_CAPACITY;
 use crate::messages::MessageType;
 use crate::server::{Effects, Now, Server};
 
@@ -89,6 +90,9 @@ pub enum LiveKind {
     },
     /// GroupJog: the job of the jog motion (0 = none) and whether it is incremental.
     Jog { job: u32, incremental: bool },
+    /// A read executed continuously (ExecutionMode CONTINUOUS): answered ACTIVE again every
+    /// [`CONTINUOUS_INTERVAL_MS`] until ExecutionMode STOP_PARALLEL_CONTINUOUS_TRIGGER.
+    Continuous { sent_ms: u64 },
     /// GroupReset waiting for the orchestrator to restart failed services (request
     /// `request_id`, last sent at `sent_ms`, first at `since_ms`); the planner's reset
     /// follows.
@@ -133,6 +137,20 @@ impl LineTarget {
         (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * 1000.0
     }
 }
+
+/// How often a continuous read is answered again (ms).
+pub const CONTINUOUS_INTERVAL_MS: u64 = 100;
+
+/// The reads that run in the parallel buffer, once (PARALLEL) or continuously.
+const CONTINUOUS_READS: [u16; 7] = [
+    t::read_actual_position::TYPE,
+    t::read_tool_data::TYPE,
+    t::read_frame_data::TYPE,
+    t::read_load_data::TYPE,
+    t::read_robot_default_dynamics::TYPE,
+    t::read_robot_reference_dynamics::TYPE,
+    t::read_robot_sw_limits::TYPE,
+];
 
 /// Text for the message log of a command that ended with `code`.
 pub fn describe(code: u16) -> &'static str {
@@ -241,6 +259,12 @@ impl Server {
                 h.execution_mode,
                 execution_mode::SEQUENCE_SECONDARY | execution_mode::PARALLEL
             ),
+            ty if CONTINUOUS_READS.contains(&ty) => matches!(
+                h.execution_mode,
+                execution_mode::PARALLEL
+                    | execution_mode::CONTINUOUS
+                    | execution_mode::STOP_PARALLEL_CONTINUOUS_TRIGGER
+            ),
             _ => h.execution_mode == execution_mode::PARALLEL,
         };
         let known = IMPLEMENTED.contains(&h.command_type);
@@ -255,6 +279,20 @@ impl Server {
             );
             return;
         }
+        if known && h.execution_mode == execution_mode::STOP_PARALLEL_CONTINUOUS_TRIGGER {
+            self.stop_continuous(h.command_type, now);
+            self.respond(cmd_id, h, state::DONE, 0, now, |_| {});
+            return;
+        }
+        if known && h.execution_mode == execution_mode::CONTINUOUS {
+            self.start_continuous(cmd_id, h, msg, now, fx);
+            return;
+        }
+        self.execute(cmd_id, h, msg, now, fx);
+    }
+
+    /// Carries out a new command.
+    fn execute(&mut self, cmd_id: u16, h: CommandHeader, msg: &[u8], now: Now, fx: &mut Effects) {
         match h.command_type {
             t::read_robot_data::TYPE => self.read_robot_data(cmd_id, h, now),
             t::exchange_configuration::TYPE => self.exchange_configuration(cmd_id, h, msg, now),
@@ -314,6 +352,13 @@ impl Server {
         };
         self.live[i].par_seq = h.par_seq;
         match self.live[i].kind {
+            LiveKind::Continuous { .. }
+                if h.execution_mode == execution_mode::STOP_PARALLEL_CONTINUOUS_TRIGGER =>
+            {
+                self.respond(cmd_id, h, state::DONE, 0, now, |_| {});
+            }
+            // New parameters: answered at once, then continuously as before.
+            LiveKind::Continuous { .. } => self.answer_continuous(i, msg, now, fx),
             LiveKind::Messages { .. } => self.update_read_messages(i, msg, now),
             LiveKind::Configuration { .. } => self.update_exchange_configuration(i, msg, now),
             LiveKind::ServerLog => self.update_read_server_log(i, msg, now),
@@ -330,6 +375,71 @@ impl Server {
         }
     }
 
+    /// ExecutionMode CONTINUOUS: the read is answered now and then again every
+    /// [`CONTINUOUS_INTERVAL_MS`], ACTIVE, until it is stopped.
+    fn start_continuous(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        msg: &[u8],
+        now: Now,
+        fx: &mut Effects,
+    ) {
+        let i = self.keep_live(
+            cmd_id,
+            h,
+            LiveKind::Continuous {
+                sent_ms: now.mono_ms,
+            },
+        );
+        self.answer_continuous(i, msg, now, fx);
+    }
+
+    /// Answers continuous read `i` again (ACTIVE); an error ends it.
+    fn answer_continuous(&mut self, i: usize, msg: &[u8], now: Now, fx: &mut Effects) {
+        let cmd_id = self.live[i].cmd_id;
+        let h = CommandHeader {
+            execution_mode: execution_mode::CONTINUOUS,
+            ..self.live_header(i)
+        };
+        self.live[i].kind = LiveKind::Continuous {
+            sent_ms: now.mono_ms,
+        };
+        self.continuous_answer = Some(cmd_id);
+        self.execute(cmd_id, h, msg, now, fx);
+        self.continuous_answer = None;
+    }
+
+    /// Answers the continuous reads that are due again (from `poll`).
+    pub(crate) fn refresh_continuous(&mut self, now: Now, fx: &mut Effects) {
+        for i in 0..self.live.len() {
+            let LiveKind::Continuous { sent_ms } = self.live[i].kind else {
+                continue;
+            };
+            if now.mono_ms.saturating_sub(sent_ms) < CONTINUOUS_INTERVAL_MS {
+                continue;
+            }
+            let mut message = [0u8; MESSAGE_CAPACITY];
+            let Some(stored) = self.acr.message_of(self.live[i].cmd_id) else {
+                continue;
+            };
+            let len = stored.len();
+            message[..len].copy_from_slice(stored);
+            self.answer_continuous(i, &message[..len], now, fx);
+        }
+    }
+
+    /// ExecutionMode STOP_PARALLEL_CONTINUOUS_TRIGGER as a new command: every continuous
+    /// read of `command_type` ends DONE.
+    fn stop_continuous(&mut self, command_type: u16, now: Now) {
+        while let Some(i) = self.live.iter().position(|l| {
+            l.command_type == command_type && matches!(l.kind, LiveKind::Continuous { .. })
+        }) {
+            let (cmd_id, h) = (self.live[i].cmd_id, self.live_header(i));
+            self.respond(cmd_id, h, state::DONE, 0, now, |_| {});
+        }
+    }
+
     /// Queues a response to the command `cmd_id` (header `h`) and ends it if `st` is final.
     pub(crate) fn respond(
         &mut self,
@@ -340,6 +450,12 @@ impl Server {
         now: Now,
         fill: impl FnOnce(&mut [u8]),
     ) {
+        // A continuous read answers ACTIVE where a single one is DONE.
+        let st = if st == state::DONE && self.continuous_answer == Some(cmd_id) {
+            state::ACTIVE
+        } else {
+            st
+        };
         let header = ResponseHeader {
             par_seq: h.par_seq,
             state: st,
