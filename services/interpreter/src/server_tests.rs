@@ -214,6 +214,13 @@ fn request(command_type: u16, mode: u8, len: usize) -> Vec<u8> {
 
 const NEW: u8 = FragmentAction::RESET | FragmentAction::COMPLETE;
 
+/// Leaves the four rates of a request at "default" (0xFFFF).
+fn default_rates(w: &mut PayloadWriter, rates: [shared_types::srci::payload::Field; 4]) {
+    for f in rates {
+        w.set_u16(f, 0xFFFF);
+    }
+}
+
 fn feedback(state: DriveState) -> ServoFeedback {
     ServoFeedback::at_rest(1, [0.0, 1.57, 1.57, 1.57, -1.57, 0.0], state, 1_000_000)
 }
@@ -400,14 +407,15 @@ fn move_needs_enabled_drives_and_reports_planner_events() {
     );
     {
         let mut w = PayloadWriter::new(&mut msg);
-        for f in [
-            t::move_axes_absolute::request::VELOCITY_RATE,
-            t::move_axes_absolute::request::ACCELERATION_RATE,
-            t::move_axes_absolute::request::DECELERATION_RATE,
-            t::move_axes_absolute::request::JERK_RATE,
-        ] {
-            w.set_u16(f, 0xFFFF);
-        }
+        default_rates(
+            &mut w,
+            [
+                t::move_axes_absolute::request::VELOCITY_RATE,
+                t::move_axes_absolute::request::ACCELERATION_RATE,
+                t::move_axes_absolute::request::DECELERATION_RATE,
+                t::move_axes_absolute::request::JERK_RATE,
+            ],
+        );
         w.set_f32(t::move_axes_absolute::request::JOINT_POSITION_J1, 10.0);
     }
     plc.command(&mut server, 3, NEW, &msg);
@@ -994,14 +1002,15 @@ fn a_linear_move_reports_the_distance_left_on_its_line() {
     let mut msg = request(mla::TYPE, 0, mla::request::LEN);
     {
         let mut w = PayloadWriter::new(&mut msg);
-        for f in [
-            mla::request::VELOCITY_RATE,
-            mla::request::ACCELERATION_RATE,
-            mla::request::DECELERATION_RATE,
-            mla::request::JERK_RATE,
-        ] {
-            w.set_u16(f, 0xFFFF);
-        }
+        default_rates(
+            &mut w,
+            [
+                mla::request::VELOCITY_RATE,
+                mla::request::ACCELERATION_RATE,
+                mla::request::DECELERATION_RATE,
+                mla::request::JERK_RATE,
+            ],
+        );
         for (f, v) in mla::request::POSITION_X_RZ
             .into_iter()
             .zip([400.0, 0.0, 300.0, 0.0, 0.0, 0.0])
@@ -1083,14 +1092,15 @@ fn move_axes(mode: u8, j1_deg: f32) -> Vec<u8> {
         t::move_axes_absolute::request::LEN,
     );
     let mut w = PayloadWriter::new(&mut msg);
-    for f in [
-        t::move_axes_absolute::request::VELOCITY_RATE,
-        t::move_axes_absolute::request::ACCELERATION_RATE,
-        t::move_axes_absolute::request::DECELERATION_RATE,
-        t::move_axes_absolute::request::JERK_RATE,
-    ] {
-        w.set_u16(f, 0xFFFF);
-    }
+    default_rates(
+        &mut w,
+        [
+            t::move_axes_absolute::request::VELOCITY_RATE,
+            t::move_axes_absolute::request::ACCELERATION_RATE,
+            t::move_axes_absolute::request::DECELERATION_RATE,
+            t::move_axes_absolute::request::JERK_RATE,
+        ],
+    );
     w.set_f32(t::move_axes_absolute::request::JOINT_POSITION_J1, j1_deg);
     msg
 }
@@ -1193,14 +1203,15 @@ fn an_excursion_on_the_secondary_sequence_returns_to_the_primary_position() {
     );
     {
         let mut w = PayloadWriter::new(&mut back);
-        for f in [
-            t::return_to_primary::request::VELOCITY_RATE,
-            t::return_to_primary::request::ACCELERATION_RATE,
-            t::return_to_primary::request::DECELERATION_RATE,
-            t::return_to_primary::request::JERK_RATE,
-        ] {
-            w.set_u16(f, 0xFFFF);
-        }
+        default_rates(
+            &mut w,
+            [
+                t::return_to_primary::request::VELOCITY_RATE,
+                t::return_to_primary::request::ACCELERATION_RATE,
+                t::return_to_primary::request::DECELERATION_RATE,
+                t::return_to_primary::request::JERK_RATE,
+            ],
+        );
         w.set_bit(t::return_to_primary::request::ENABLE, true);
     }
     plc.command(&mut server, 9, NEW, &back);
@@ -1379,14 +1390,15 @@ fn the_tool_and_frame_of_an_accepted_move_become_the_ones_in_use() {
     let mut msg = request(mla::TYPE, 0, mla::request::LEN);
     {
         let mut w = PayloadWriter::new(&mut msg);
-        for f in [
-            mla::request::VELOCITY_RATE,
-            mla::request::ACCELERATION_RATE,
-            mla::request::DECELERATION_RATE,
-            mla::request::JERK_RATE,
-        ] {
-            w.set_u16(f, 0xFFFF);
-        }
+        default_rates(
+            &mut w,
+            [
+                mla::request::VELOCITY_RATE,
+                mla::request::ACCELERATION_RATE,
+                mla::request::DECELERATION_RATE,
+                mla::request::JERK_RATE,
+            ],
+        );
         w.set_u8(mla::request::TOOL_NO, 3);
         w.set_u8(mla::request::FRAME_NO, 2);
         w.set_f32(mla::request::POSITION_X, 400.0);
