@@ -1,5 +1,5 @@
-//! GroupJog (2100), Enable type, joint mode: continuous and incremental jogging, Enabled,
-//! MotionActive and DistanceReached, and the refusals.
+//! GroupJog (2100), Enable type, in joint, frame and tool mode: continuous and incremental
+//! jogging, Enabled, MotionActive and DistanceReached, and the refusals.
 
 use std::time::Duration;
 
@@ -116,10 +116,9 @@ fn incremental_and_continuous_jogging_in_joint_mode() {
         &backwards.request(),
         code::INVALID_INCREMENTAL_ROTATION,
     );
-    let mut in_frame = jog.pressing(0, 1);
-    in_frame.mode = 0;
-    // Frame and tool jogging need Cartesian motion: not implemented yet.
-    expect_error(&mut plc, &in_frame.request(), code::NOT_IMPLEMENTED);
+    let mut undefined = jog.pressing(0, 1);
+    undefined.mode = 3;
+    expect_error(&mut plc, &undefined.request(), code::INVALID_MODE);
     let mut sequence = jog.clone();
     sequence.execution_mode = 0;
     expect_error(&mut plc, &sequence.request(), code::INVALID_EXECUTION_MODE);
@@ -216,4 +215,99 @@ fn jogging_while_the_primary_sequence_is_interrupted() {
         (after[5] - before[5] - 3.0).abs() < 0.01,
         "{before:?} -> {after:?}"
     );
+}
+
+/// The TCP (tool 0, world frame): X, Y, Z in mm, RX, RY, RZ in degrees.
+fn flange(plc: &mut crate::common::Plc) -> [f64; 6] {
+    let s = crate::common::expect_done(
+        plc,
+        &Request::ReadActualPosition { tool: 0, frame: 0 },
+        shared_types::srci::tables::read_actual_position::response::LEN,
+    );
+    plc_client::response::ActualPosition::decode(&s.response).cartesian
+}
+
+#[test]
+fn frame_and_tool_jogging_move_the_tcp_along_their_axes() {
+    let (_c, mut plc) = initialized("jogcart");
+    reset_and_enable(&mut plc);
+    let mut jog = GroupJog::axes(20.0);
+    jog.mode = 0;
+    let h = plc.task_mut().submit(&jog.request()).expect("submit");
+    run_until_state(&mut plc, h, state::ACTIVE, Duration::from_secs(3));
+
+    // Frame mode (world frame), incremental: +X by 20 mm, the orientation unchanged.
+    let before = flange(&mut plc);
+    let mut step = jog.pressing(0, 1);
+    step.incremental_translation = 20.0;
+    plc.task_mut().update(h, &step.request()).expect("update");
+    plc.run_until(
+        |t| {
+            t.status(h)
+                .is_some_and(|s| JogStatus::decode(&s.response).distance_reached || s.is_final())
+        },
+        Duration::from_secs(10),
+    )
+    .expect("distance reached");
+    assert_eq!(plc.task().status(h).map(|s| s.state), Some(state::ACTIVE));
+    let after = flange(&mut plc);
+    let moved: Vec<f64> = (0..6).map(|k| after[k] - before[k]).collect();
+    assert!((moved[0] - 20.0).abs() < 0.05, "moved {moved:?}");
+    assert!(
+        moved[1..].iter().all(|d| d.abs() < 0.05),
+        "only along X: {moved:?}"
+    );
+
+    // Tool mode, continuous -Z while the key is held: the TCP moves along the tool's Z axis
+    // (the home pose points the flange's Z elsewhere than the world's), orientation kept.
+    let mut tool = jog.pressing(2, -1);
+    tool.mode = 1;
+    let before = flange(&mut plc);
+    plc.task_mut().update(h, &tool.request()).expect("press");
+    plc.run_for(Duration::from_millis(600)).expect("jogging");
+    plc.task_mut().update(h, &jog.request()).expect("release");
+    plc.run_until(
+        |t| {
+            t.status(h)
+                .is_some_and(|s| !JogStatus::decode(&s.response).motion_active)
+        },
+        Duration::from_secs(5),
+    )
+    .expect("stopped");
+    let after = flange(&mut plc);
+    let shift = [
+        after[0] - before[0],
+        after[1] - before[1],
+        after[2] - before[2],
+    ];
+    let length = shift.iter().map(|v| v * v).sum::<f64>().sqrt();
+    assert!(length > 1.0, "the TCP moved: {shift:?}");
+    // The tool's Z axis in the world: the third column of Rz·Ry·Rx.
+    let [a, b, c] = [before[3], before[4], before[5]].map(f64::to_radians);
+    let z = [
+        c.cos() * b.sin() * a.cos() + c.sin() * a.sin(),
+        c.sin() * b.sin() * a.cos() - c.cos() * a.sin(),
+        b.cos() * a.cos(),
+    ];
+    let off_axis = (0..3)
+        .map(|k| (shift[k] / length + z[k]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(off_axis < 0.01, "along the tool's -Z: {shift:?} vs {z:?}");
+    assert!(
+        (3..6).all(|k| (after[k] - before[k]).abs() < 0.05),
+        "orientation kept: {before:?} -> {after:?}"
+    );
+    plc.task_mut()
+        .update(
+            h,
+            &GroupJog {
+                enable: false,
+                ..jog
+            }
+            .request(),
+        )
+        .expect("disable");
+    let s = run_until_state(&mut plc, h, state::DONE, Duration::from_secs(3));
+    assert_eq!(s.state, state::DONE);
 }

@@ -3,6 +3,7 @@
 //! wrapped by a small process loop ([`service`]).
 
 pub mod acr;
+pub mod cartesian_jog;
 pub mod commands;
 pub mod cyclic;
 pub mod handover;

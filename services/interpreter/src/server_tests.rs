@@ -1469,3 +1469,44 @@ fn a_continuous_read_answers_again_until_it_is_stopped() {
         code::INVALID_EXECUTION_MODE
     );
 }
+
+#[test]
+fn a_continuous_frame_jog_halves_its_step_where_the_planner_finds_no_way() {
+    use t::group_jog as gj;
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    let mut jog = request(gj::TYPE, 7, gj::request::LEN);
+    {
+        let mut w = PayloadWriter::new(&mut jog);
+        w.set_bit(gj::request::ENABLE, true);
+        w.set_u8(gj::request::MODE, 0);
+        w.set_u16(gj::request::OVERRIDE, 2000);
+        w.set_bit(gj::request::X_J1_POS, true);
+    }
+    plc.command(&mut server, 3, NEW, &jog);
+    let first = *plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::MoveLinear as u8)
+        .expect("a line along X");
+    // The flange stands at x = 0.5 m (the test status): the line heads 0.4 m further.
+    assert!((first.pose[0] - 0.9).abs() < 1e-9, "{:?}", first.pose);
+    assert_eq!(
+        first.sequence,
+        shared_types::ipc::MotionSequence::Secondary as u8
+    );
+    let refused = [(1, first.job, state::ERROR, code::TARGET_UNREACHABLE)];
+    server.on_motion_status(plc.now(), &status(5, &refused), &mut fx);
+    let second = fx
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::MoveLinear as u8)
+        .copied()
+        .expect("a shorter line");
+    assert!((second.pose[0] - 0.7).abs() < 1e-9, "{:?}", second.pose);
+    plc.idle(&mut server);
+    assert_eq!(
+        plc.last_response(3).unwrap().state,
+        state::ACTIVE,
+        "the jog goes on"
+    );
+}

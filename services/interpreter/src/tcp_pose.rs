@@ -36,6 +36,12 @@ pub fn to_wire(t: &Isometry3<f64>) -> WirePose {
     ]
 }
 
+/// Frame `frame` (255 = the one in use) in the world, or the code that refuses the index.
+pub fn world_frame(data: &UserData, frame: u8) -> Result<Isometry3<f64>, u16> {
+    let (frame_no, _) = data.read_frame(frame)?;
+    world_to_frame(data, frame_no)
+}
+
 /// World → frame `index` through its reference frames (the store refuses cycles; the
 /// chain is bounded by the number of frames anyway).
 fn world_to_frame(data: &UserData, index: u8) -> Result<Isometry3<f64>, u16> {

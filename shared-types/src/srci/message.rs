@@ -162,6 +162,8 @@ pub mod code {
     pub const INVALID_FRAME_NO: u16 = 0x8D08;
     /// Incremental rotation invalid.
     pub const INVALID_INCREMENTAL_ROTATION: u16 = 0x8D09;
+    /// Incremental translation invalid.
+    pub const INVALID_INCREMENTAL_TRANSLATION: u16 = 0x8D10;
     pub const INVALID_JERK_RATE: u16 = 0x8D11;
     /// Positive and negative jog direction at the same time.
     pub const JOG_BOTH_DIRECTIONS: u16 = 0x8D12;

@@ -1,23 +1,39 @@
-//! GroupJog in joint mode: an Enable-type command whose direction bits move joints while
-//! they are set (continuous) or by a distance (incremental), at the jog override.
+//! GroupJog: an Enable-type command whose direction bits move the arm while they are set
+//! (continuous) or by a distance (incremental), at the jog override, on the secondary
+//! sequence.
 //!
 //! Each change of the direction bits halts the jog motion on its path and, if bits remain,
-//! starts a new joint move: continuous jogging heads for the joint limit and stops on its
-//! path when the bit is released; incremental jogging moves by IncrementalRotation degrees.
-//! The response stays ACTIVE with Enabled, MotionActive and DistanceReached; Enable = FALSE
-//! ends the command DONE. Jogging in frame or tool coordinates needs Cartesian motion.
+//! starts a new move. In joint mode it is a joint move: continuous jogging heads for the
+//! joint limit, incremental jogging moves by IncrementalRotation degrees. In frame and tool
+//! mode it is a straight TCP line along (or a turn about) the axes of FrameNo or of the tool
+//! ToolNo: incremental by IncrementalTranslation mm / IncrementalRotation degrees; continuous
+//! towards a point 400 mm (90°) away, which the planner checks before the arm moves; where
+//! that is out of reach or beyond a limit, the step is halved (up to six times) so that the
+//! arm still jogs up to near the edge. The response stays ACTIVE with Enabled, MotionActive
+//! and DistanceReached; Enable = FALSE ends the command DONE.
 
 use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind, MotionSequence};
 use shared_types::srci::message::{CommandHeader, Percent, code, state};
 use shared_types::srci::payload::{Field, PayloadReader, PayloadWriter};
 use shared_types::srci::tables::group_jog as gj;
 
+use shared_types::pose;
+
 use super::LiveKind;
+use crate::cartesian_jog::{self, JogStep};
 use crate::motion_link::JobUpdate;
 use crate::server::{Effects, Now, Server};
+use crate::tcp_pose;
 
-/// Jog mode of joint (axis) jogging.
+/// JogMode: frame, tool, joint (axis) jogging.
+const JOG_FRAME: u8 = 0;
+const JOG_TOOL: u8 = 1;
 const JOG_AXES: u8 = 2;
+/// How far a continuous frame or tool jog heads for (m, rad) before it is halved.
+const CONTINUOUS_DISTANCE_M: f64 = 0.4;
+const CONTINUOUS_ANGLE_RAD: f64 = core::f64::consts::FRAC_PI_2;
+/// How often a continuous frame or tool jog halves its step before it gives up.
+const HALVINGS: u8 = 6;
 /// Continuous jogging stops this far inside the joint limit (rad).
 const LIMIT_MARGIN: f64 = 0.5 * core::f64::consts::PI / 180.0;
 /// Acceleration share of the joint limits while jogging.
@@ -33,10 +49,27 @@ const DIRECTIONS: [(Field, Field); AXES] = [
     (gj::request::RZ_J6_POS, gj::request::RZ_J6_NEG),
 ];
 
+/// A frame or tool jog in progress: its step, tool, frame and speed, and how often it may
+/// still halve the step.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CartesianJog {
+    pub step: JogStep,
+    pub tool_no: u8,
+    pub frame_no: u8,
+    pub velocity_scale: f64,
+    pub halvings_left: u8,
+}
+
 /// A decoded GroupJog request.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct JogRequest {
     pub enable: bool,
+    /// JogMode: [`JOG_FRAME`], [`JOG_TOOL`] or [`JOG_AXES`].
+    pub mode: u8,
+    pub tool_no: u8,
+    pub frame_no: u8,
+    /// Incremental translation in m (frame and tool mode); 0 = continuous.
+    pub translation: f64,
     /// Per joint: +1, -1 or 0.
     pub directions: [i8; AXES],
     /// Fraction of the joint velocity limits, (0, 1].
@@ -45,13 +78,17 @@ pub(crate) struct JogRequest {
     pub increment: f64,
 }
 
-/// Checks a GroupJog request (joint mode only) and returns it, or the code that refuses it.
+/// Checks a GroupJog request and returns it, or the code that refuses it.
 pub(crate) fn decode_jog(msg: &[u8]) -> Result<JogRequest, u16> {
     let r = PayloadReader::new(msg);
     let enable = r.bit(gj::request::ENABLE);
-    if r.u8(gj::request::MODE) != JOG_AXES {
-        // Frame and tool jogging move the TCP on Cartesian paths, which come later.
-        return Err(code::NOT_IMPLEMENTED);
+    let mode = r.u8(gj::request::MODE);
+    if !matches!(mode, JOG_FRAME | JOG_TOOL | JOG_AXES) {
+        return Err(code::INVALID_MODE);
+    }
+    let translation = f64::from(r.f32(gj::request::INCREMENTAL_TRANSLATION));
+    if !translation.is_finite() || translation < 0.0 {
+        return Err(code::INVALID_INCREMENTAL_TRANSLATION);
     }
     let mut directions = [0i8; AXES];
     for (d, (pos, neg)) in directions.iter_mut().zip(DIRECTIONS) {
@@ -73,6 +110,10 @@ pub(crate) fn decode_jog(msg: &[u8]) -> Result<JogRequest, u16> {
     }
     Ok(JogRequest {
         enable,
+        mode,
+        tool_no: r.u8(gj::request::TOOL_NO),
+        frame_no: r.u8(gj::request::FRAME_NO),
+        translation: translation / 1000.0,
         directions,
         // 0 % means no movement: the move is simply not started.
         velocity_scale: override_percent / 100.0,
@@ -83,6 +124,35 @@ pub(crate) fn decode_jog(msg: &[u8]) -> Result<JogRequest, u16> {
 impl JogRequest {
     fn moves(&self) -> bool {
         self.enable && self.velocity_scale > 0.0 && self.directions.iter().any(|d| *d != 0)
+    }
+
+    /// Whether it moves by a given distance rather than while the bits are set.
+    fn incremental(&self) -> bool {
+        self.increment > 0.0 || (self.mode != JOG_AXES && self.translation > 0.0)
+    }
+
+    /// The frame or tool jog it asks for (`None` in joint mode).
+    fn cartesian(&self) -> Option<CartesianJog> {
+        if self.mode == JOG_AXES {
+            return None;
+        }
+        let (distance_m, angle_rad, halvings_left) = if self.incremental() {
+            (self.translation, self.increment, 0)
+        } else {
+            (CONTINUOUS_DISTANCE_M, CONTINUOUS_ANGLE_RAD, HALVINGS)
+        };
+        Some(CartesianJog {
+            step: JogStep {
+                in_tool: self.mode == JOG_TOOL,
+                directions: self.directions,
+                distance_m,
+                angle_rad,
+            },
+            tool_no: self.tool_no,
+            frame_no: self.frame_no,
+            velocity_scale: self.velocity_scale,
+            halvings_left,
+        })
     }
 
     /// The joint target of this jog from `q` within `[min, max]`.
@@ -115,6 +185,7 @@ impl Server {
             LiveKind::Jog {
                 job: 0,
                 incremental: false,
+                cartesian: None,
             },
         );
         self.update_group_jog(i, msg, now, fx);
@@ -157,47 +228,92 @@ impl Server {
             self.respond(cmd_id, h, state::DONE, 0, now, |_| {});
             return;
         }
+        let cartesian = request.cartesian();
         let mut job = 0;
-        if request.moves()
-            && let Some(status) = self.status
-        {
-            let limits = self.user_data.sw_limits_rad();
-            let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
-            c.sequence = MotionSequence::Secondary as u8;
-            c.joints_rad = request.target(status.joints_rad, limits.lower, limits.upper);
-            c.velocity_scale = request.velocity_scale;
-            c.acceleration_scale = JOG_ACCELERATION;
-            c.deceleration_scale = JOG_ACCELERATION;
-            c.sw_lower_rad = limits.lower;
-            c.sw_upper_rad = limits.upper;
-            match self.motion.submit(
-                c,
-                Some((cmd_id, h.par_seq, gj::TYPE)),
-                now.mono_ms,
-                &mut fx.motion,
-            ) {
-                Some(j) => job = j,
-                None => {
-                    return self.respond(
-                        cmd_id,
-                        h,
-                        state::ERROR,
-                        code::INTERNAL_ERROR,
-                        now,
-                        |_| {},
-                    );
-                }
+        if request.moves() {
+            let submitted = match cartesian {
+                Some(jog) => self.submit_cartesian_jog(cmd_id, h, &jog, now, fx),
+                None => self.submit_joint_jog(cmd_id, h, &request, now, fx),
+            };
+            match submitted {
+                Ok(j) => job = j,
+                Err(c) => return self.respond(cmd_id, h, state::ERROR, c, now, |_| {}),
             }
         }
         self.live[i].kind = LiveKind::Jog {
             job,
-            incremental: request.increment > 0.0,
+            incremental: request.incremental(),
+            cartesian,
         };
         self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
             let mut w = PayloadWriter::new(b);
             w.set_bit(gj::response::ENABLED, true);
             w.set_bit(gj::response::MOTION_ACTIVE, job != 0);
         });
+    }
+
+    /// A joint jog move; returns its job or the code that refuses it.
+    fn submit_joint_jog(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        request: &JogRequest,
+        now: Now,
+        fx: &mut Effects,
+    ) -> Result<u32, u16> {
+        let status = self.status.ok_or(code::INTERNAL_ERROR)?;
+        let limits = self.user_data.sw_limits_rad();
+        let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+        c.joints_rad = request.target(status.joints_rad, limits.lower, limits.upper);
+        c.velocity_scale = request.velocity_scale;
+        self.submit_jog_move(cmd_id, h, c, now, fx)
+    }
+
+    /// A frame or tool jog step: a straight TCP line from where the TCP is; returns its job
+    /// or the code that refuses it (a tool or frame that does not exist).
+    fn submit_cartesian_jog(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        jog: &CartesianJog,
+        now: Now,
+        fx: &mut Effects,
+    ) -> Result<u32, u16> {
+        let status = self.status.ok_or(code::INTERNAL_ERROR)?;
+        let tool = tcp_pose::tool_offset(&self.user_data, jog.tool_no)?;
+        let frame = tcp_pose::world_frame(&self.user_data, jog.frame_no)?;
+        let tcp = pose::isometry(status.flange_pose) * pose::isometry(tool);
+        let mut c = MotionCommand::new(MotionCommandKind::MoveLinear);
+        c.pose = pose::pose(&cartesian_jog::target(&tcp, &frame, &jog.step));
+        c.tool = tool;
+        c.ori_mode = 1;
+        c.velocity_scale = jog.velocity_scale;
+        self.submit_jog_move(cmd_id, h, c, now, fx)
+    }
+
+    /// Hands a jog move to the planner on the secondary sequence, within the SW limits.
+    fn submit_jog_move(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        mut c: MotionCommand,
+        now: Now,
+        fx: &mut Effects,
+    ) -> Result<u32, u16> {
+        let limits = self.user_data.sw_limits_rad();
+        c.sequence = MotionSequence::Secondary as u8;
+        c.acceleration_scale = JOG_ACCELERATION;
+        c.deceleration_scale = JOG_ACCELERATION;
+        c.sw_lower_rad = limits.lower;
+        c.sw_upper_rad = limits.upper;
+        self.motion
+            .submit(
+                c,
+                Some((cmd_id, h.par_seq, gj::TYPE)),
+                now.mono_ms,
+                &mut fx.motion,
+            )
+            .ok_or(code::INTERNAL_ERROR)
     }
 
     /// Stops the secondary sequence's motion on its path (a jog, ReturnToPrimary, secondary
@@ -245,14 +361,44 @@ impl Server {
 
     /// A state change of the jog motion: the GroupJog command stays ACTIVE and reports
     /// whether the arm moves and whether an incremental distance was reached.
-    pub(crate) fn on_jog_update(&mut self, i: usize, u: JobUpdate, now: Now) {
-        let LiveKind::Jog { job, incremental } = self.live[i].kind else {
+    pub(crate) fn on_jog_update(&mut self, i: usize, u: JobUpdate, now: Now, fx: &mut Effects) {
+        let LiveKind::Jog {
+            job,
+            incremental,
+            cartesian,
+        } = self.live[i].kind
+        else {
             return;
         };
         if u.job != job {
             return;
         }
         let h = self.live_header(i);
+        let too_far = matches!(
+            u.code,
+            code::TARGET_UNREACHABLE | code::SW_LIMIT_LOWER | code::SW_LIMIT_UPPER
+        );
+        if u.state == state::ERROR
+            && too_far
+            && let Some(jog) = cartesian.filter(|j| j.halvings_left > 0)
+        {
+            // The planner refused before moving: a shorter continuous step, from here.
+            let shorter = CartesianJog {
+                step: jog.step.halved(),
+                halvings_left: jog.halvings_left - 1,
+                ..jog
+            };
+            let job = match self.submit_cartesian_jog(u.cmd_id, h, &shorter, now, fx) {
+                Ok(job) => job,
+                Err(c) => return self.respond(u.cmd_id, h, state::ERROR, c, now, |_| {}),
+            };
+            self.live[i].kind = LiveKind::Jog {
+                job,
+                incremental,
+                cartesian: Some(shorter),
+            };
+            return;
+        }
         if u.state == state::ERROR {
             self.respond(u.cmd_id, h, state::ERROR, u.code, now, |_| {});
             return;
@@ -262,6 +408,7 @@ impl Server {
             self.live[i].kind = LiveKind::Jog {
                 job: 0,
                 incremental,
+                cartesian,
             };
         }
         let reached = incremental && u.state == state::DONE;
@@ -309,10 +456,43 @@ mod tests {
             w.set_bit(gj::request::X_J1_NEG, true);
         });
         assert_eq!(decode_jog(&both), Err(code::JOG_BOTH_DIRECTIONS));
-        let frame = request(|w| w.set_u8(gj::request::MODE, 0));
-        assert_eq!(decode_jog(&frame), Err(code::NOT_IMPLEMENTED));
+        let undefined = request(|w| w.set_u8(gj::request::MODE, 3));
+        assert_eq!(decode_jog(&undefined), Err(code::INVALID_MODE));
+        let backwards = request(|w| w.set_f32(gj::request::INCREMENTAL_TRANSLATION, -1.0));
+        assert_eq!(
+            decode_jog(&backwards),
+            Err(code::INVALID_INCREMENTAL_TRANSLATION)
+        );
         let fast = request(|w| w.set_u16(gj::request::OVERRIDE, 10_001));
         assert_eq!(decode_jog(&fast), Err(code::INVALID_OVERRIDE));
+    }
+
+    #[test]
+    fn frame_and_tool_jogs_step_by_their_increments_or_head_far_and_may_halve() {
+        let incremental = decode_jog(&request(|w| {
+            w.set_u8(gj::request::MODE, JOG_TOOL);
+            w.set_u8(gj::request::TOOL_NO, 3);
+            w.set_bit(gj::request::Z_J3_NEG, true);
+            w.set_f32(gj::request::INCREMENTAL_TRANSLATION, 2.5);
+        }))
+        .unwrap();
+        let jog = incremental.cartesian().unwrap();
+        assert!(jog.step.in_tool && jog.tool_no == 3);
+        assert_eq!(jog.step.directions, [0, 0, -1, 0, 0, 0]);
+        assert_eq!((jog.step.distance_m, jog.halvings_left), (0.0025, 0));
+        let continuous = decode_jog(&request(|w| {
+            w.set_u8(gj::request::MODE, JOG_FRAME);
+            w.set_bit(gj::request::X_J1_POS, true);
+        }))
+        .unwrap();
+        let jog = continuous.cartesian().unwrap();
+        assert!(!jog.step.in_tool && !continuous.incremental());
+        assert_eq!(
+            (jog.step.distance_m, jog.halvings_left),
+            (CONTINUOUS_DISTANCE_M, HALVINGS)
+        );
+        let joints = decode_jog(&request(|_| {})).unwrap();
+        assert_eq!(joints.cartesian(), None);
     }
 
     #[test]

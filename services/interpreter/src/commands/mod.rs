@@ -88,8 +88,13 @@ pub enum LiveKind {
         since_ms: u64,
         reached: bool,
     },
-    /// GroupJog: the job of the jog motion (0 = none) and whether it is incremental.
-    Jog { job: u32, incremental: bool },
+    /// GroupJog: the job of the jog motion (0 = none), whether it is incremental, and for
+    /// frame and tool jogging the step it takes.
+    Jog {
+        job: u32,
+        incremental: bool,
+        cartesian: Option<jog::CartesianJog>,
+    },
     /// A read executed continuously (ExecutionMode CONTINUOUS): answered ACTIVE again every
     /// [`CONTINUOUS_INTERVAL_MS`] until ExecutionMode STOP_PARALLEL_CONTINUOUS_TRIGGER.
     Continuous { sent_ms: u64 },
@@ -182,6 +187,7 @@ pub fn describe(code: u16) -> &'static str {
         code::JOG_DURING_MOTION => "jog not possible during an active movement",
         code::JOG_BOTH_DIRECTIONS => "positive and negative jog direction at the same time",
         code::INVALID_INCREMENTAL_ROTATION => "IncrementalRotation must be a number >= 0",
+        code::INVALID_INCREMENTAL_TRANSLATION => "IncrementalTranslation must be a number >= 0",
         code::INVALID_TIME => "move cannot be done in the requested time",
         code::TOOL_NOT_EXISTING => "ToolNo does not exist",
         code::FRAME_NOT_EXISTING => "FrameNo does not exist",

@@ -480,12 +480,12 @@ impl Server {
     }
 
     /// A planner event (or a lost planner) changed the state of a job.
-    pub(crate) fn on_job_update(&mut self, u: JobUpdate, now: Now, _fx: &mut Effects) {
+    pub(crate) fn on_job_update(&mut self, u: JobUpdate, now: Now, fx: &mut Effects) {
         let Some(i) = self.live.iter().position(|l| l.cmd_id == u.cmd_id) else {
             return;
         };
         if matches!(self.live[i].kind, LiveKind::Jog { .. }) {
-            self.on_jog_update(i, u, now);
+            self.on_jog_update(i, u, now, fx);
             return;
         }
         let h = self.live_header(i);
