@@ -31,25 +31,32 @@ fn rate(wire: u16, default: f64, invalid: u16) -> Result<f64, u16> {
     }
 }
 
-/// Where the parameters every move command shares sit in its request table.
-struct MoveLayout {
+/// Where the rates and Time of a move sit in its request table.
+struct DynamicsLayout {
     velocity: Field,
     acceleration: Field,
     deceleration: Field,
     jerk: Field,
-    tool: Field,
-    blending_mode: Field,
     time: Field,
 }
 
+/// Where the parameters every move command shares sit in its request table.
+struct MoveLayout {
+    dynamics: DynamicsLayout,
+    tool: Field,
+    blending_mode: Field,
+}
+
 const MOVE_AXES: MoveLayout = MoveLayout {
-    velocity: maa::request::VELOCITY_RATE,
-    acceleration: maa::request::ACCELERATION_RATE,
-    deceleration: maa::request::DECELERATION_RATE,
-    jerk: maa::request::JERK_RATE,
+    dynamics: DynamicsLayout {
+        velocity: maa::request::VELOCITY_RATE,
+        acceleration: maa::request::ACCELERATION_RATE,
+        deceleration: maa::request::DECELERATION_RATE,
+        jerk: maa::request::JERK_RATE,
+        time: maa::request::TIME,
+    },
     tool: maa::request::TOOL_NO,
     blending_mode: maa::request::BLENDING_MODE,
-    time: maa::request::TIME,
 };
 
 /// Where the Cartesian target sits in the request table of a Cartesian move.
@@ -67,13 +74,15 @@ struct CartesianLayout {
 
 const MOVE_DIRECT: CartesianLayout = CartesianLayout {
     common: MoveLayout {
-        velocity: mda::request::VELOCITY_RATE,
-        acceleration: mda::request::ACCELERATION_RATE,
-        deceleration: mda::request::DECELERATION_RATE,
-        jerk: mda::request::JERK_RATE,
+        dynamics: DynamicsLayout {
+            velocity: mda::request::VELOCITY_RATE,
+            acceleration: mda::request::ACCELERATION_RATE,
+            deceleration: mda::request::DECELERATION_RATE,
+            jerk: mda::request::JERK_RATE,
+            time: mda::request::TIME,
+        },
         tool: mda::request::TOOL_NO,
         blending_mode: mda::request::BLENDING_MODE,
-        time: mda::request::TIME,
     },
     frame: mda::request::FRAME_NO,
     position: mda::request::POSITION_X_RZ,
@@ -87,13 +96,15 @@ const MOVE_DIRECT: CartesianLayout = CartesianLayout {
 
 const MOVE_LINEAR: CartesianLayout = CartesianLayout {
     common: MoveLayout {
-        velocity: mla::request::VELOCITY_RATE,
-        acceleration: mla::request::ACCELERATION_RATE,
-        deceleration: mla::request::DECELERATION_RATE,
-        jerk: mla::request::JERK_RATE,
+        dynamics: DynamicsLayout {
+            velocity: mla::request::VELOCITY_RATE,
+            acceleration: mla::request::ACCELERATION_RATE,
+            deceleration: mla::request::DECELERATION_RATE,
+            jerk: mla::request::JERK_RATE,
+            time: mla::request::TIME,
+        },
         tool: mla::request::TOOL_NO,
         blending_mode: mla::request::BLENDING_MODE,
-        time: mla::request::TIME,
     },
     frame: mla::request::FRAME_NO,
     position: mla::request::POSITION_X_RZ,
@@ -105,9 +116,57 @@ const MOVE_LINEAR: CartesianLayout = CartesianLayout {
     turn_mode: mla::request::TURN_MODE,
 };
 
+const RETURN_TO_PRIMARY: DynamicsLayout = DynamicsLayout {
+    velocity: rtp::request::VELOCITY_RATE,
+    acceleration: rtp::request::ACCELERATION_RATE,
+    deceleration: rtp::request::DECELERATION_RATE,
+    jerk: rtp::request::JERK_RATE,
+    time: rtp::request::TIME,
+};
+
+/// Whether `mode` puts a move on the secondary sequence.
+fn on_secondary(mode: u8) -> bool {
+    matches!(
+        mode,
+        execution_mode::SEQUENCE_SECONDARY | execution_mode::SEQUENCE_ABORT_OTHERS_SECONDARY
+    )
+}
+
+/// A planner command of `kind` with the rates (those left at default from the default
+/// dynamics), the Time and the PLC's SW limits of the request.
+fn with_dynamics(
+    r: &PayloadReader<'_>,
+    layout: &DynamicsLayout,
+    kind: MotionCommandKind,
+    data: &UserData,
+) -> Result<MotionCommand, u16> {
+    let defaults = data.default_rates();
+    let mut c = MotionCommand::new(kind);
+    c.velocity_scale = rate(
+        r.u16(layout.velocity),
+        defaults.velocity,
+        code::INVALID_VELOCITY_RATE,
+    )?;
+    c.acceleration_scale = rate(
+        r.u16(layout.acceleration),
+        defaults.acceleration,
+        code::INVALID_ACCELERATION_RATE,
+    )?;
+    c.deceleration_scale = rate(
+        r.u16(layout.deceleration),
+        defaults.deceleration,
+        code::INVALID_DECELERATION_RATE,
+    )?;
+    c.jerk_scale = rate(r.u16(layout.jerk), defaults.jerk, code::INVALID_JERK_RATE)?;
+    c.duration_s = f64::from(r.u16(layout.time)) / 1000.0;
+    let limits = data.sw_limits_rad();
+    c.sw_lower_rad = limits.lower;
+    c.sw_upper_rad = limits.upper;
+    Ok(c)
+}
+
 /// Checks what every move shares (rates, tool, blending, time, execution mode) and returns a
-/// planner command of `kind` with them, the tool's TCP included; rates left at default take
-/// the default dynamics.
+/// planner command of `kind` with them, the tool's TCP included.
 fn decode_move(
     r: &PayloadReader<'_>,
     layout: &MoveLayout,
@@ -115,86 +174,30 @@ fn decode_move(
     kind: MotionCommandKind,
     data: &UserData,
 ) -> Result<MotionCommand, u16> {
-    let defaults = data.default_rates();
-    let velocity = rate(
-        r.u16(layout.velocity),
-        defaults.velocity,
-        code::INVALID_VELOCITY_RATE,
-    )?;
-    let acceleration = rate(
-        r.u16(layout.acceleration),
-        defaults.acceleration,
-        code::INVALID_ACCELERATION_RATE,
-    )?;
-    let deceleration = rate(
-        r.u16(layout.deceleration),
-        defaults.deceleration,
-        code::INVALID_DECELERATION_RATE,
-    )?;
-    let jerk = rate(r.u16(layout.jerk), defaults.jerk, code::INVALID_JERK_RATE)?;
-    let tool = tcp_pose::tool_offset(data, r.u8(layout.tool))?;
+    let mut c = with_dynamics(r, &layout.dynamics, kind, data)?;
+    c.tool = tcp_pose::tool_offset(data, r.u8(layout.tool))?;
     match r.u8(layout.blending_mode) {
         0 => {}
         2 | 3 | 4 | 10 | 11 | 12 => return Err(code::BLENDING_MODE_NOT_SUPPORTED),
         _ => return Err(code::INVALID_BLENDING_MODE),
     }
-    let mut c = MotionCommand::new(kind);
     c.aborting = matches!(
         h.execution_mode,
         execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
             | execution_mode::SEQUENCE_ABORT_OTHERS_SECONDARY
     );
-    let secondary = matches!(
-        h.execution_mode,
-        execution_mode::SEQUENCE_SECONDARY | execution_mode::SEQUENCE_ABORT_OTHERS_SECONDARY
-    );
-    c.sequence = if secondary {
+    c.sequence = if on_secondary(h.execution_mode) {
         MotionSequence::Secondary
     } else {
         MotionSequence::Primary
     } as u8;
-    c.velocity_scale = velocity;
-    c.acceleration_scale = acceleration;
-    c.deceleration_scale = deceleration;
-    c.jerk_scale = jerk;
-    c.duration_s = f64::from(r.u16(layout.time)) / 1000.0;
-    c.tool = tool;
-    let limits = data.sw_limits_rad();
-    c.sw_lower_rad = limits.lower;
-    c.sw_upper_rad = limits.upper;
     Ok(c)
 }
 
 /// The rates and Time of a ReturnToPrimary request as a planner command (kind and target
 /// are set by the caller).
 pub(crate) fn decode_return(r: &PayloadReader<'_>, data: &UserData) -> Result<MotionCommand, u16> {
-    let defaults = data.default_rates();
-    let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
-    c.velocity_scale = rate(
-        r.u16(rtp::request::VELOCITY_RATE),
-        defaults.velocity,
-        code::INVALID_VELOCITY_RATE,
-    )?;
-    c.acceleration_scale = rate(
-        r.u16(rtp::request::ACCELERATION_RATE),
-        defaults.acceleration,
-        code::INVALID_ACCELERATION_RATE,
-    )?;
-    c.deceleration_scale = rate(
-        r.u16(rtp::request::DECELERATION_RATE),
-        defaults.deceleration,
-        code::INVALID_DECELERATION_RATE,
-    )?;
-    c.jerk_scale = rate(
-        r.u16(rtp::request::JERK_RATE),
-        defaults.jerk,
-        code::INVALID_JERK_RATE,
-    )?;
-    c.duration_s = f64::from(r.u16(rtp::request::TIME)) / 1000.0;
-    let limits = data.sw_limits_rad();
-    c.sw_lower_rad = limits.lower;
-    c.sw_upper_rad = limits.upper;
-    Ok(c)
+    with_dynamics(r, &RETURN_TO_PRIMARY, MotionCommandKind::MoveAxes, data)
 }
 
 /// Checks a MoveAxesAbsolute request and turns it into a planner command; targets must lie
@@ -314,10 +317,7 @@ impl Server {
         fx: &mut Effects,
     ) {
         let data = &self.user_data;
-        let secondary = matches!(
-            h.execution_mode,
-            execution_mode::SEQUENCE_SECONDARY | execution_mode::SEQUENCE_ABORT_OTHERS_SECONDARY
-        );
+        let secondary = on_secondary(h.execution_mode);
         let checked = if self.error_pending {
             Err(code::DISABLED_DUE_TO_ERROR)
         } else if !self.drives_enabled() {
