@@ -142,6 +142,11 @@ pub enum MotionCommandKind {
     /// Cartesian straight-line move of the TCP to `pose` (MoveLinearAbsolute), orientation
     /// interpolated as `ori_mode` says.
     MoveLinear = 9,
+    /// Circular move of the TCP to `pose` (MoveCircularAbsolute/Relative), the arc given by
+    /// `aux_pose` and the circle fields, orientation interpolated as `ori_mode` says.
+    MoveCircular = 10,
+    /// WaitTime: the sequence stands still for `duration_s` before its next move.
+    Wait = 11,
 }
 
 impl MotionCommandKind {
@@ -157,6 +162,8 @@ impl MotionCommandKind {
             7 => Self::Continue,
             8 => Self::MoveDirect,
             9 => Self::MoveLinear,
+            10 => Self::MoveCircular,
+            11 => Self::Wait,
             _ => return None,
         })
     }
@@ -215,7 +222,60 @@ pub struct MotionCommand {
     /// StepMode: when this primary move ends, the primary sequence is held (as by
     /// GroupInterrupt) until GroupContinue.
     pub hold_after: bool,
-    pub reserved2: [u8; 4],
+    /// BlendingMode into the next move of the sequence (wire value: 0 exact stop, 2 defined
+    /// velocity, 3 corner distance, 4 max corner deviation, 10 and 12 the radius variants,
+    /// 11 ramp overlap).
+    pub blending_mode: u8,
+    /// [`TargetReference`] as `u8`: how `joints_rad` or `pose` give the target.
+    pub target_reference: u8,
+    /// CircMode of `MoveCircular` (wire value: 0 border, 1 center, 2 center with angle,
+    /// 3 radius).
+    pub circle_mode: u8,
+    /// CircPlane of `MoveCircular` (wire value: 0 XZ, 1 YZ, 2 XY of the frame in `aux_pose`'s
+    /// orientation), used by the center-with-angle and radius modes.
+    pub circle_plane: u8,
+    /// PathChoice of `MoveCircular` (wire value: 0 clockwise, 1 counter-clockwise).
+    pub path_choice: u8,
+    pub reserved2: [u8; 7],
+    /// BlendingParameter[0..1] in SI units: for DEFINED_VELOCITY and RAMP_OVERLAP a fraction
+    /// (the PLC's percent / 100), for the distance modes metres.
+    pub blending_parameter: [f64; 2],
+    /// `MoveCircular`: the AuxPoint in the robot base frame, units as `pose` (border mode: a
+    /// point on the arc; the center modes: the centre; its orientation gives the CircPlane
+    /// axes).
+    pub aux_pose: [f64; 6],
+    /// `MoveCircular` CENTER_WITH_ANGLE: the angle to travel (rad).
+    pub circle_angle_rad: f64,
+    /// `MoveCircular` RADIUS: the radius of the arc (m).
+    pub circle_radius_m: f64,
+}
+
+/// How a move's target is given (`MotionCommand::target_reference`). A relative target is
+/// added to where the move starts: the end of the move before it in the sequence.
+#[repr(u8)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TargetReference {
+    /// `joints_rad` or `pose` is the target itself.
+    Absolute = 0,
+    /// `joints_rad` is added to the start joints (MoveAxesRelative); for Cartesian moves
+    /// `pose` is a displacement in base axes: x, y, z added to the TCP position, the rotation
+    /// vector Rx, Ry, Rz applied to its orientation about the TCP (a displacement in a frame,
+    /// rotated into base axes).
+    RelativeInBase = 1,
+    /// `pose` is a displacement in the tool's own axes: `T_target = T_start · pose`.
+    RelativeInTool = 2,
+}
+
+impl TargetReference {
+    /// Decodes the wire value.
+    pub fn from_wire(v: u8) -> Option<Self> {
+        Some(match v {
+            0 => Self::Absolute,
+            1 => Self::RelativeInBase,
+            2 => Self::RelativeInTool,
+            _ => return None,
+        })
+    }
 }
 
 /// The sequence a [`MotionCommand`] belongs to or acts on.
@@ -271,7 +331,16 @@ impl MotionCommand {
             ori_mode: 0,
             sequence: MotionSequence::All as u8,
             hold_after: false,
-            reserved2: [0; 4],
+            blending_mode: 0,
+            target_reference: TargetReference::Absolute as u8,
+            circle_mode: 0,
+            circle_plane: 0,
+            path_choice: 0,
+            reserved2: [0; 7],
+            blending_parameter: [0.0; 2],
+            aux_pose: [0.0; 6],
+            circle_angle_rad: 0.0,
+            circle_radius_m: 0.0,
         }
     }
 }

@@ -267,7 +267,9 @@ impl Executor {
                 self.status.error_code = 0;
                 self.report(job, state::DONE, 0);
             }
-            None => self.report(job, state::ERROR, code::NOT_IMPLEMENTED),
+            Some(MotionCommandKind::MoveCircular | MotionCommandKind::Wait) | None => {
+                self.report(job, state::ERROR, code::NOT_IMPLEMENTED)
+            }
         }
     }
 
