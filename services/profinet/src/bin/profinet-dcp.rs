@@ -1,0 +1,122 @@
+//! Runs the DCP responder of the PROFINET IO-device on one interface (needs root or
+//! CAP_NET_RAW), until SIGINT or SIGTERM.
+//!
+//! ```text
+//! profinet-dcp --interface eth1 --name rc-robot [--ip 192.168.0.50 --netmask 255.255.255.0
+//!              --gateway 0.0.0.0] [--store /var/lib/rc/station] [--vendor-id 0xffff]
+//!              [--device-id 0x0001]
+//! ```
+//!
+//! The name and IP are the factory values; values set permanently over DCP are kept in the
+//! store file and win at the next start.
+
+use std::net::Ipv4Addr;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use profinet::dcp::responder::DcpResponder;
+use profinet::dcp::station::{
+    DeviceIdentity, IpParameter, MemoryStore, NameOfStation, PermanentStore, StationParameters,
+};
+use profinet::link::dcp_service::DcpService;
+use profinet::link::file_store::FileStore;
+use profinet::link::raw_socket::RawSocket;
+
+/// TypeOfStation the device reports.
+const TYPE_OF_STATION: &str = "rc SRCI robot controller";
+
+struct Options {
+    interface: String,
+    factory: StationParameters,
+    store: Option<String>,
+    vendor_id: u16,
+    device_id: u16,
+}
+
+fn parse_options() -> Result<Options, String> {
+    let mut interface = None;
+    let mut name = NameOfStation::default();
+    let mut ip = IpParameter::UNSET;
+    let mut store = None;
+    let mut vendor_id = 0xffff;
+    let mut device_id = 0x0001;
+    let mut args = std::env::args().skip(1);
+    while let Some(flag) = args.next() {
+        let value = args.next().ok_or_else(|| format!("{flag} needs a value"))?;
+        let address = || {
+            value
+                .parse::<Ipv4Addr>()
+                .map_err(|e| format!("{flag} {value}: {e}"))
+        };
+        let id = || {
+            u16::from_str_radix(value.trim_start_matches("0x"), 16)
+                .map_err(|e| format!("{flag} {value}: {e}"))
+        };
+        match flag.as_str() {
+            "--interface" => interface = Some(value.clone()),
+            "--name" => {
+                name = NameOfStation::new(value.as_bytes()).map_err(|e| format!("--name: {e}"))?
+            }
+            "--ip" => ip.address = address()?,
+            "--netmask" => ip.subnet_mask = address()?,
+            "--gateway" => ip.gateway = address()?,
+            "--store" => store = Some(value.clone()),
+            "--vendor-id" => vendor_id = id()?,
+            "--device-id" => device_id = id()?,
+            other => return Err(format!("unknown option {other}")),
+        }
+    }
+    let ip = ip
+        .validate()
+        .map_err(|e| format!("--ip/--netmask/--gateway: {e}"))?;
+    Ok(Options {
+        interface: interface.ok_or("--interface is required")?,
+        factory: StationParameters {
+            name_of_station: name,
+            ip,
+        },
+        store,
+        vendor_id,
+        device_id,
+    })
+}
+
+fn serve<S: PermanentStore>(options: Options, store: S) -> Result<(), String> {
+    let socket = RawSocket::open(&options.interface).map_err(|e| e.to_string())?;
+    let identity = DeviceIdentity {
+        mac: socket.mac(),
+        vendor_id: options.vendor_id,
+        device_id: options.device_id,
+        device_instance: 0x0001,
+        type_of_station: TYPE_OF_STATION.to_owned(),
+    };
+    let responder = DcpResponder::new(identity, options.factory, store);
+    let shutdown = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&shutdown);
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
+        .map_err(|e| format!("cannot handle SIGINT/SIGTERM: {e}"))?;
+    DcpService::new(socket, responder)
+        .run(&shutdown)
+        .map_err(|e| e.to_string())
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .init();
+    let result = parse_options().and_then(|mut options| match options.store.take() {
+        Some(path) => serve(options, FileStore::new(path)),
+        None => serve(options, MemoryStore::default()),
+    });
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("profinet-dcp: {error}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,364 @@
+//! System test of the DCP responder on the wire: two network namespaces joined by a veth
+//! pair, our `profinet-dcp` in one, the third-party IO-controller profinet-py (an external
+//! GPL tool, run as a process) in the other, and tshark capturing what passes.
+//!
+//! Needs root (namespaces, raw sockets); skipped with a message otherwise. profinet-py is
+//! installed into `target/profinet-venv` by `services/profinet/setup.sh` when missing.
+//! tshark is used when installed; under CI (`CI` set) its absence fails the test.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Factory NameOfStation and IP of the device under test.
+const FACTORY_NAME: &str = "rc-robot";
+const DEVICE_IP: &str = "192.168.77.50";
+/// profinet-py's wait for DCP answers, seconds (our Identify spread stays below 1.28 s).
+const DISCOVER_TIMEOUT_S: &str = "3";
+
+fn repository() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn run(command: &mut Command) -> Output {
+    command
+        .output()
+        .unwrap_or_else(|e| panic!("{command:?}: {e}"))
+}
+
+fn ip(args: &[&str]) {
+    let output = run(Command::new("ip").args(args));
+    assert!(
+        output.status.success(),
+        "ip {args:?}: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+/// Two namespaces, PLC and device, joined by a veth pair; removed on drop.
+struct Namespaces {
+    plc: String,
+    device: String,
+    plc_interface: String,
+    device_interface: String,
+}
+
+impl Namespaces {
+    fn create() -> Self {
+        let id = std::process::id();
+        let namespaces = Self {
+            plc: format!("pnplc{id}"),
+            device: format!("pndev{id}"),
+            plc_interface: format!("pnva{id}"),
+            device_interface: format!("pnvb{id}"),
+        };
+        ip(&["netns", "add", &namespaces.plc]);
+        ip(&["netns", "add", &namespaces.device]);
+        ip(&[
+            "link",
+            "add",
+            &namespaces.plc_interface,
+            "type",
+            "veth",
+            "peer",
+            "name",
+            &namespaces.device_interface,
+        ]);
+        for (interface, namespace, address) in [
+            (
+                &namespaces.plc_interface,
+                &namespaces.plc,
+                "192.168.77.1/24",
+            ),
+            (
+                &namespaces.device_interface,
+                &namespaces.device,
+                "192.168.77.50/24",
+            ),
+        ] {
+            ip(&["link", "set", interface, "netns", namespace]);
+            ip(&["-n", namespace, "link", "set", interface, "up"]);
+            ip(&["-n", namespace, "addr", "add", address, "dev", interface]);
+        }
+        namespaces
+    }
+
+    /// A command run inside `namespace` (`ip netns exec` replaces itself with it, so the
+    /// child's pid is the command's).
+    fn command(namespace: &str, program: &Path) -> Command {
+        let mut command = Command::new("ip");
+        command.args(["netns", "exec", namespace]).arg(program);
+        command
+    }
+
+    fn device_mac(&self) -> String {
+        let output = run(Command::new("ip").args([
+            "-n",
+            &self.device,
+            "-br",
+            "link",
+            "show",
+            &self.device_interface,
+        ]));
+        let text = String::from_utf8_lossy(&output.stdout).to_string();
+        text.split_whitespace()
+            .nth(2)
+            .unwrap_or_else(|| panic!("no MAC in {text:?}"))
+            .to_owned()
+    }
+}
+
+impl Drop for Namespaces {
+    fn drop(&mut self) {
+        // Deleting a namespace deletes the veth end in it, and with it the pair.
+        for namespace in [&self.plc, &self.device] {
+            let _ = Command::new("ip")
+                .args(["netns", "del", namespace])
+                .status();
+        }
+    }
+}
+
+/// A child process stopped with SIGINT (then killed) on drop.
+struct Running(Child);
+
+impl Running {
+    fn interrupt_and_wait(&mut self) {
+        let pid = libc::pid_t::try_from(self.0.id()).expect("pid fits");
+        // SAFETY: signalling our own child by its pid.
+        unsafe { libc::kill(pid, libc::SIGINT) };
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = self.0.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        if let Ok(None) = self.0.try_wait() {
+            self.interrupt_and_wait();
+        }
+    }
+}
+
+fn start_device(namespaces: &Namespaces, store: &Path) -> Running {
+    let child = Namespaces::command(
+        &namespaces.device,
+        Path::new(env!("CARGO_BIN_EXE_profinet-dcp")),
+    )
+    .args(["--interface", &namespaces.device_interface])
+    .args(["--name", FACTORY_NAME])
+    .args([
+        "--ip",
+        DEVICE_IP,
+        "--netmask",
+        "255.255.255.0",
+        "--gateway",
+        "0.0.0.0",
+    ])
+    .arg("--store")
+    .arg(store)
+    .env("RUST_LOG", "info")
+    .stdout(Stdio::null())
+    .stderr(Stdio::inherit())
+    .spawn()
+    .expect("start profinet-dcp");
+    // The socket is open long before the first request: profinet-py's own start-up takes
+    // longer than ours; a short pause keeps the first Identify from racing it.
+    std::thread::sleep(Duration::from_millis(300));
+    Running(child)
+}
+
+/// profinet-py's CLI, run in the PLC namespace; returns its stdout, asserting success.
+fn profinet_py(venv: &Path, namespaces: &Namespaces, args: &[&str]) -> String {
+    let output = run(
+        Namespaces::command(&namespaces.plc, &venv.join("bin/profinet"))
+            .args(["-i", &namespaces.plc_interface, "-t", DISCOVER_TIMEOUT_S])
+            .args(args),
+    );
+    let stdout = String::from_utf8_lossy(&output.stdout).to_string();
+    assert!(
+        output.status.success(),
+        "profinet {args:?} failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    stdout
+}
+
+fn profinet_py_venv() -> PathBuf {
+    let venv = std::env::var_os("PROFINET_PY_VENV")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repository().join("target/profinet-venv"));
+    if !venv.join("bin/profinet").exists() {
+        let status = Command::new("bash")
+            .arg(repository().join("services/profinet/setup.sh"))
+            .env("PROFINET_PY_VENV", &venv)
+            .status()
+            .expect("run services/profinet/setup.sh");
+        assert!(
+            status.success(),
+            "services/profinet/setup.sh failed: profinet-py is needed"
+        );
+    }
+    venv
+}
+
+fn tshark() -> Option<PathBuf> {
+    let found = std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|dir| dir.join("tshark"))
+            .find(|path| path.exists())
+    });
+    if found.is_none() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "tshark is missing: CI must install it (apt-get install -y tshark)"
+        );
+        eprintln!("tshark not installed: the capture is not decoded (apt-get install -y tshark)");
+    }
+    found
+}
+
+/// Starts a capture of PROFINET frames in the PLC namespace; waits until it runs.
+fn start_capture(tshark: &Path, namespaces: &Namespaces, file: &Path) -> Running {
+    let child = Namespaces::command(&namespaces.plc, tshark)
+        .args([
+            "-i",
+            &namespaces.plc_interface,
+            "-f",
+            "ether proto 0x8892",
+            "-w",
+        ])
+        .arg(file)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start tshark");
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !file.exists() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(file.exists(), "tshark did not start capturing");
+    // dumpcap creates the file before the capture filter is applied.
+    std::thread::sleep(Duration::from_millis(500));
+    Running(child)
+}
+
+/// tshark's decode of the capture: one line per frame, and the numbers of malformed ones.
+fn decode(tshark: &Path, file: &Path) -> (String, String) {
+    let summary = run(Command::new(tshark).arg("-r").arg(file));
+    let malformed = run(Command::new(tshark).arg("-r").arg(file).args([
+        "-Y",
+        "_ws.malformed || _ws.expert.severity >= \"warning\"",
+        "-T",
+        "fields",
+        "-e",
+        "frame.number",
+    ]));
+    (
+        String::from_utf8_lossy(&summary.stdout).to_string(),
+        String::from_utf8_lossy(&malformed.stdout).to_string(),
+    )
+}
+
+#[test]
+fn profinet_py_discovers_renames_signals_and_resets_the_device() {
+    // SAFETY: geteuid has no preconditions.
+    if unsafe { libc::geteuid() } != 0 {
+        eprintln!(
+            "SKIPPED profinet_py_discovers_renames_signals_and_resets_the_device: needs root \
+             (network namespaces and raw sockets)"
+        );
+        return;
+    }
+    let venv = profinet_py_venv();
+    let tshark = tshark();
+    let namespaces = Namespaces::create();
+    let work = std::env::temp_dir().join(format!("profinet-dcp-netns-{}", std::process::id()));
+    std::fs::create_dir_all(&work).expect("work folder");
+    let store = work.join("station");
+    let capture_file = work.join("dcp.pcapng");
+    let mut capture = tshark
+        .as_deref()
+        .map(|tshark| start_capture(tshark, &namespaces, &capture_file));
+    let mac = namespaces.device_mac();
+    let mut device = start_device(&namespaces, &store);
+
+    // Identify all finds our identity.
+    let found = profinet_py(&venv, &namespaces, &["discover"]);
+    for expected in [
+        format!("PROFINET Device: {FACTORY_NAME}"),
+        format!("MAC:     {mac}"),
+        format!("IP:      {DEVICE_IP}"),
+        "Netmask: 255.255.255.0".to_owned(),
+        "(0xFFFF)".to_owned(),
+        "Device:  0x0001".to_owned(),
+        "Role:    IO-Device".to_owned(),
+    ] {
+        assert!(found.contains(&expected), "{expected:?} not in:\n{found}");
+    }
+
+    // Set NameOfStation permanently: Get and Identify see it, the store holds it.
+    profinet_py(
+        &venv,
+        &namespaces,
+        &["set-param", "--permanent", &mac, "name", "cell1-robot"],
+    );
+    let name = profinet_py(&venv, &namespaces, &["get-param", &mac, "name"]);
+    assert_eq!(name.trim(), "cell1-robot");
+    let stored = std::fs::read_to_string(&store).expect("the store file is written");
+    assert!(stored.contains("name_of_station = cell1-robot"), "{stored}");
+    let found = profinet_py(&venv, &namespaces, &["discover"]);
+    assert!(found.contains("PROFINET Device: cell1-robot"), "{found}");
+
+    // The permanent name survives a restart.
+    device.interrupt_and_wait();
+    let mut device = start_device(&namespaces, &store);
+    let name = profinet_py(&venv, &namespaces, &["get-param", &mac, "name"]);
+    assert_eq!(name.trim(), "cell1-robot");
+
+    // A temporary IP, Signal, and reset to factory.
+    profinet_py(
+        &venv,
+        &namespaces,
+        &["set-ip", &mac, "192.168.77.60", "255.255.255.0", "0.0.0.0"],
+    );
+    let address = profinet_py(&venv, &namespaces, &["get-param", &mac, "ip"]);
+    assert_eq!(address.trim(), "192.168.77.60");
+    let signalled = profinet_py(&venv, &namespaces, &["signal", &mac]);
+    assert!(signalled.contains("flash triggered"), "{signalled}");
+    profinet_py(&venv, &namespaces, &["reset", &mac]);
+    let name = profinet_py(&venv, &namespaces, &["get-param", &mac, "name"]);
+    assert_eq!(name.trim(), FACTORY_NAME);
+    assert!(!store.exists(), "reset to factory leaves the store file");
+    device.interrupt_and_wait();
+
+    if let (Some(tshark), Some(capture)) = (tshark.as_deref(), capture.as_mut()) {
+        capture.interrupt_and_wait();
+        let (summary, malformed) = decode(tshark, &capture_file);
+        eprintln!("{summary}");
+        assert!(
+            summary.contains("Ident Ok"),
+            "no Identify response captured:\n{summary}"
+        );
+        assert!(
+            summary.contains("Set Ok"),
+            "no Set response captured:\n{summary}"
+        );
+        assert!(
+            summary.contains("Get Ok"),
+            "no Get response captured:\n{summary}"
+        );
+        assert!(
+            malformed.trim().is_empty(),
+            "malformed frames {malformed}in:\n{summary}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&work);
+}
