@@ -19,6 +19,7 @@ pub mod linear_move;
 pub mod motion;
 pub mod profile;
 pub mod queue;
+pub mod safety_filter;
 pub mod sequences;
 pub mod service;
 #[cfg(test)]
