@@ -12,6 +12,7 @@ mod bench;
 mod controller;
 mod demo;
 mod plc;
+mod plot;
 mod status;
 
 use std::io::IsTerminal;
@@ -68,12 +69,22 @@ enum Command {
         /// Lifesign timeout the PLC sets with ExchangeConfiguration.
         #[arg(long, default_value_t = 50)]
         lifesign_ms: u16,
+        /// The controller's configuration, for --plot: its instance and robot (default: the
+        /// embedded config/default.toml).
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+        /// Records the run and writes its motion plot (SVG) to FILE when it ends.
+        #[arg(long, value_name = "FILE.svg")]
+        plot: Option<PathBuf>,
     },
     /// Starts a controller, runs the demo program against it, prints a summary and stops it.
     Demo {
         /// Configuration file for the controller (default: the embedded config/default.toml).
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
+        /// Records the run and writes its motion plot (SVG) to FILE when it ends.
+        #[arg(long, value_name = "FILE.svg")]
+        plot: Option<PathBuf>,
     },
     /// Replaces one service process of the running controller now (a planned restart:
     /// SIGTERM, a new process once the old one is gone) and prints the new pid. The other
@@ -132,18 +143,40 @@ fn main() -> ExitCode {
             addr,
             cycle_ms,
             lifesign_ms,
+            config,
+            plot: svg_path,
         } => {
             init_logging("warn");
-            Ok(plc::run_file(
-                &program,
-                &addr,
-                Duration::from_millis(cycle_ms),
-                lifesign_ms,
-            ))
+            let cycle_time = Duration::from_millis(cycle_ms);
+            with_config(config.as_deref(), |config| {
+                let Some(svg_path) = svg_path else {
+                    return plc::run_file(&program, &addr, cycle_time, lifesign_ms);
+                };
+                install_shutdown_handler()?;
+                // Loaded here for the plot's title (and to fail before recording); the run
+                // loads it again, as without --plot.
+                let name = plc_client::Program::load(&program)?.name;
+                let request = plot::PlotRequest {
+                    path: &svg_path,
+                    command: "rc plc",
+                    program: &name,
+                };
+                plot::run_recorded(config, request, &SHUTDOWN, move || {
+                    plc::run_file(&program, &addr, cycle_time, lifesign_ms)
+                })
+            })
         }
-        Command::Demo { config } => {
+        Command::Demo {
+            config,
+            plot: svg_path,
+        } => {
             init_logging("warn");
-            with_config(config.as_deref(), demo::run)
+            with_config(config.as_deref(), |config| {
+                if svg_path.is_some() {
+                    install_shutdown_handler()?;
+                }
+                demo::run(config, svg_path.as_deref(), &SHUTDOWN)
+            })
         }
         Command::Restart { service, config } => {
             init_logging("warn");
