@@ -119,7 +119,7 @@ pub struct ThreadScheduling {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FieldbusConfig {
-    /// `tcp`: the TCP gateway transport.
+    /// `tcp`: the TCP gateway transport; `profinet`: the PROFINET IO-device.
     pub transport: String,
     /// Listen address of the TCP gateway transport.
     pub listen: String,
@@ -130,6 +130,109 @@ pub struct FieldbusConfig {
     /// How long the gateway holds the PLC over while no interpreter process listens (one is
     /// being replaced): it answers with the last reply and a live lifesign, no new ACK.
     pub holdover_ms: u64,
+    /// `[fieldbus.profinet]`: the PROFINET IO-device, used when `transport = "profinet"`.
+    #[serde(default)]
+    pub profinet: ProfinetConfig,
+}
+
+/// `[fieldbus.profinet]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProfinetConfig {
+    /// The Linux network interface the device is on.
+    pub interface: String,
+    /// The factory NameOfStation (DCP may set another one, kept in `data_dir`).
+    pub station_name: String,
+    /// Bytes of the SRCI module per direction: 64, 128 or 256; the telegram lengths are
+    /// the same.
+    pub module_size: u16,
+    /// The factory IP address, netmask and gateway ("0.0.0.0": none).
+    pub ip: String,
+    pub netmask: String,
+    pub gateway: String,
+    /// Folder of the NameOfStation and IP a controller sets permanently over DCP. Empty:
+    /// $XDG_STATE_HOME/rc/<instance>, or ~/.local/state/rc/<instance>.
+    pub data_dir: String,
+}
+
+impl Default for ProfinetConfig {
+    fn default() -> Self {
+        Self {
+            interface: "eth0".into(),
+            station_name: "rc-robot".into(),
+            module_size: 256,
+            ip: "0.0.0.0".into(),
+            netmask: "0.0.0.0".into(),
+            gateway: "0.0.0.0".into(),
+            data_dir: String::new(),
+        }
+    }
+}
+
+impl ProfinetConfig {
+    /// Checks the table; `telegram_lengths` are the transport's two telegram lengths.
+    fn validate(&self, c: &Checker<'_>, telegram_lengths: [u16; 2]) -> Result<(), ConfigError> {
+        let interface_ok = !self.interface.is_empty()
+            && self.interface.len() < 16
+            && !self.interface.contains(['/', ' ', '\0']);
+        if !interface_ok {
+            return Err(c.out_of_range(
+                "fieldbus.profinet.interface",
+                format!("\"{}\"", self.interface),
+                "a network interface name of 1 to 15 characters".into(),
+            ));
+        }
+        let name_ok = !self.station_name.is_empty()
+            && self.station_name.len() <= 240
+            && self.station_name.split('.').all(|label| {
+                !label.is_empty()
+                    && label.len() <= 63
+                    && !label.starts_with('-')
+                    && !label.ends_with('-')
+                    && label
+                        .bytes()
+                        .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
+            });
+        if !name_ok {
+            return Err(c.out_of_range(
+                "fieldbus.profinet.station_name",
+                format!("\"{}\"", self.station_name),
+                "a NameOfStation: labels of a-z 0-9 - separated by dots, at most 240 characters"
+                    .into(),
+            ));
+        }
+        if ![64, 128, 256].contains(&self.module_size) {
+            return Err(c.out_of_range(
+                "fieldbus.profinet.module_size",
+                self.module_size.to_string(),
+                "64, 128 or 256".into(),
+            ));
+        }
+        if telegram_lengths != [self.module_size; 2] {
+            return Err(c.out_of_range(
+                "fieldbus.profinet.module_size",
+                self.module_size.to_string(),
+                format!(
+                    "the telegram lengths ({} and {}): the telegrams fill the SRCI module",
+                    telegram_lengths[0], telegram_lengths[1]
+                ),
+            ));
+        }
+        for (key, value) in [
+            ("fieldbus.profinet.ip", &self.ip),
+            ("fieldbus.profinet.netmask", &self.netmask),
+            ("fieldbus.profinet.gateway", &self.gateway),
+        ] {
+            if value.parse::<std::net::Ipv4Addr>().is_err() {
+                return Err(c.out_of_range(
+                    key,
+                    format!("\"{value}\""),
+                    "an IPv4 address such as \"192.168.0.50\"".into(),
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// `[interpreter]`.
@@ -434,12 +537,22 @@ impl MainConfig {
                 "1 to 32 characters of A-Z a-z 0-9 _ -".into(),
             ));
         }
-        if self.fieldbus.transport != "tcp" {
-            return Err(c.out_of_range(
-                "fieldbus.transport",
-                format!("\"{}\"", self.fieldbus.transport),
-                "\"tcp\"".into(),
-            ));
+        match self.fieldbus.transport.as_str() {
+            "tcp" => {}
+            "profinet" => self.fieldbus.profinet.validate(
+                &c,
+                [
+                    self.fieldbus.telegram_length_plc_to_rob,
+                    self.fieldbus.telegram_length_rob_to_plc,
+                ],
+            )?,
+            other => {
+                return Err(c.out_of_range(
+                    "fieldbus.transport",
+                    format!("\"{other}\""),
+                    "\"tcp\" or \"profinet\"".into(),
+                ));
+            }
         }
         if self
             .fieldbus
@@ -691,6 +804,32 @@ mod tests {
             "{err}"
         );
         assert!(err.contains("64..=256"), "{err}");
+    }
+
+    #[test]
+    fn the_profinet_transport_is_checked_key_by_key() {
+        let profinet = EMBEDDED_DEFAULT.replace("transport = \"tcp\"", "transport = \"profinet\"");
+        let main: MainConfig = parse("p.toml", &profinet).unwrap();
+        main.validate("p.toml").unwrap();
+        assert_eq!(main.fieldbus.profinet.module_size, 256);
+        let refused = |from: &str, to: &str| {
+            let text = profinet.replace(from, to);
+            assert_ne!(text, profinet, "{from}");
+            let main: MainConfig = parse("p.toml", &text).unwrap();
+            main.validate("p.toml").unwrap_err().to_string()
+        };
+        let err = refused("module_size = 256", "module_size = 100");
+        assert!(err.contains("fieldbus.profinet.module_size = 100"), "{err}");
+        let err = refused("module_size = 256", "module_size = 128");
+        assert!(err.contains("telegram lengths (256 and 256)"), "{err}");
+        let err = refused("station_name = \"rc-robot\"", "station_name = \"RC_Robot\"");
+        assert!(err.contains("fieldbus.profinet.station_name"), "{err}");
+        let err = refused("interface = \"eth0\"", "interface = \"\"");
+        assert!(err.contains("fieldbus.profinet.interface"), "{err}");
+        let err = refused("ip = \"0.0.0.0\"", "ip = \"300.1.1.1\"");
+        assert!(err.contains("fieldbus.profinet.ip"), "{err}");
+        let err = refused("transport = \"profinet\"", "transport = \"udp\"");
+        assert!(err.contains("\"tcp\" or \"profinet\""), "{err}");
     }
 
     #[test]

@@ -75,6 +75,12 @@ impl TelegramBridge {
         Ok(())
     }
 
+    /// The newest answer (or handover notice) that arrived, without waiting: the cyclic
+    /// transport takes whatever the interpreter said last.
+    pub(crate) fn latest_reply(&self) -> Result<Option<RobotTelegram>, FieldbusError> {
+        Ok(receive_latest(&self.r2p)?)
+    }
+
     /// Waits up to `timeout` for the answer to request `counter`, or the interpreter's
     /// handover notice. Answers to earlier requests that came too late are discarded on the
     /// way.

@@ -1,4 +1,5 @@
-//! The fieldbus process: the TCP gateway transport of SRCI.
+//! The fieldbus process: the TCP gateway transport of SRCI, or the PROFINET IO-device
+//! ([`profinet_transport`], `fieldbus.transport = "profinet"`).
 //!
 //! The protocol of the public SRCI TCP/IP bridge and of the open Python SRCI client: raw
 //! telegrams without framing, a fixed length in each direction, strict lockstep with the client
@@ -9,6 +10,7 @@
 pub mod assembler;
 mod bridge;
 pub mod holdover;
+pub mod profinet_transport;
 mod tcp;
 
 use std::io;
@@ -53,6 +55,8 @@ pub enum FieldbusError {
     LocalAddr(io::Error),
     #[error(transparent)]
     Bus(#[from] BusError),
+    #[error("PROFINET: {0}")]
+    Profinet(#[from] profinet_transport::ProfinetError),
     #[error("wake-up notification on '{topic}' failed: {detail}")]
     Notify { topic: &'static str, detail: String },
 }
@@ -240,17 +244,23 @@ impl Gateway {
     }
 }
 
-/// Runs the TCP gateway until `shutdown` becomes true (returns within about 10 ms).
+/// Runs the configured transport until `shutdown` becomes true (returns within about 10 ms).
 ///
 /// PLC connections are accepted only once the interpreter listens on `srci/p2r`: a PLC that
 /// connected earlier would get no answers and drop the connection.
 pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), FieldbusError> {
-    if wait_for_interpreter(config, shutdown)? {
+    if !wait_for_interpreter(config, shutdown)? {
+        return Ok(());
+    }
+    if config.main.fieldbus.transport == "profinet" {
+        let mut transport = profinet_transport::ProfinetTransport::open(config)?;
+        shared_types::supervision::ready();
+        transport.serve(shutdown)
+    } else {
         let mut gateway = Gateway::bind(config)?;
         shared_types::supervision::ready();
-        gateway.serve(shutdown)?;
+        gateway.serve(shutdown)
     }
-    Ok(())
 }
 
 /// Waits until the interpreter subscribes to the PLC telegrams; false if shut down first.

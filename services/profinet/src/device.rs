@@ -8,6 +8,13 @@
 
 use crate::rt::c_sdu::SrciModuleSize;
 
+/// VendorID: 0xFFFF, which PI leaves for development, until PI assigns this product one.
+pub const VENDOR_ID: u16 = 0xffff;
+/// DeviceID of the robot controller (the GSDML's DeviceIdentity).
+pub const DEVICE_ID: u16 = 0x0001;
+/// TypeOfStation (DCP DeviceVendorValue) and the GSDML's device name.
+pub const TYPE_OF_STATION: &str = "rc SRCI robot controller";
+
 /// The application process all submodules belong to.
 pub const API: u32 = 0;
 /// Slot of the device access point.

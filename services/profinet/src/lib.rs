@@ -1,5 +1,5 @@
 //! The PROFINET IO-device of the robot controller (issue 6): pure protocol modules and a
-//! thin raw-socket shell.
+//! thin socket shell.
 //!
 //! # Design note: what comes from the `pnio` crate
 //!
@@ -22,12 +22,16 @@
 //! - *CM over DCE/RPC*: this is where it serves. Its `rpc` (header with both DREPs, NDR,
 //!   UUIDs) and `cm::block` parsers (ARBlockReq, IOCRBlockReq, ExpectedSubmoduleBlockReq,
 //!   AlarmCRBlockReq) are pure and pinned to the S7-1515 capture, so [`cm`] uses them
-//!   (`pnio` with default features off: no `pcap-file`). The decisions are ours, because
+//!   (`pnio` with default features off: no `pcap-file`), as are its DCE/RPC header and NDR
+//!   writers, its Control, Read and Write request parsers, its Read response and its I&M0
+//!   encoding. The decisions are ours, because
 //!   its `cm::connect` grouping and validation refuse what we must accept: RTClass 1 with
 //!   FrameIDs 0xC000.., an output FrameID 0xFFFF outside 0x8000.., a device-access AR
 //!   without an AlarmCR (profinet-py's first connect); and its Connect response builder
 //!   has a fixed shape (ARType 1, two IOCRs, always an AlarmCR), so the response blocks are
-//!   written here too.
+//!   written here too; its Write response answers every record OK, so ours carries one
+//!   PNIOStatus per record. The AR state machine ([`cm::ar`]) is ours: `pnio`'s allows one
+//!   AR of one shape.
 //!
 //! p-net, profinet-py, scapy and Wireshark are GPL: read for facts only.
 //!
@@ -35,10 +39,14 @@
 //!
 //! Pure: [`ethernet`] (Ethernet II, 802.1Q), [`frame_id`] (FrameID ranges and RT classes),
 //! [`dcp`] (codec, station parameters, the responder), [`rt`] (cyclic frame, C_SDU layout,
-//! IOxS, DataStatus, cycle counter), [`device`] (DAP, interface, port, SRCI module),
-//! [`cm`] (the Connect request on `pnio`'s codecs, the C_SDU layouts it fixes, IOCR
-//! acceptance, the ModuleDiff content, the Connect response blocks). Shell: [`link`] (AF_PACKET socket, the DCP service loop, the
-//! file store); `src/bin/profinet-dcp.rs` runs the DCP responder on an interface.
+//! IOxS, DataStatus, cycle counter, the provider and the consumer with watchdog and
+//! data-hold time), [`device`] (identity; DAP, interface, port, SRCI module), [`cm`] (the
+//! DCE/RPC envelope, the Connect request on `pnio`'s codecs, IOCR acceptance, the
+//! ModuleDiff content, the Connect response blocks, records, and the AR state machine:
+//! Connect, Write, PrmEnd, ApplicationReady with its retries, Release, Read). Shell:
+//! [`link`] (AF_PACKET socket, the DCP service, the file store, and the IO device that
+//! polls the raw and the UDP socket together); `src/bin/profinet-dcp.rs` runs the DCP
+//! responder, or with `--srci-echo` the whole device with an echoing SRCI module.
 
 pub mod cm;
 pub mod dcp;

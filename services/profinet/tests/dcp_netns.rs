@@ -1,6 +1,8 @@
-//! System test of the DCP responder on the wire: two network namespaces joined by a veth
-//! pair, our `profinet-dcp` in one, the third-party IO-controller profinet-py (an external
-//! GPL tool, run as a process) in the other, and tshark capturing what passes.
+//! System tests of the IO-device on the wire: two network namespaces joined by a veth pair,
+//! our `profinet-dcp` in one, the third-party IO-controller profinet-py (an external GPL
+//! tool, run as a process) in the other, and tshark capturing what passes. The first test
+//! covers DCP; the second the connection (device-access AR, then the IO AR in the legacy
+//! style) and the cyclic exchange with the SRCI echo device.
 //!
 //! Needs root (namespaces, raw sockets); skipped with a message otherwise. profinet-py is
 //! installed into `target/profinet-venv` by `services/profinet/setup.sh` when missing.
@@ -18,6 +20,17 @@ const DISCOVER_TIMEOUT_S: &str = "3";
 
 fn repository() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// True as root; otherwise prints why `test` is skipped (namespaces and raw sockets need
+/// root).
+fn running_as_root(test: &str) -> bool {
+    // SAFETY: geteuid has no preconditions.
+    let root = unsafe { libc::geteuid() } == 0;
+    if !root {
+        eprintln!("SKIPPED {test}: needs root (network namespaces and raw sockets)");
+    }
+    root
 }
 
 fn run(command: &mut Command) -> Output {
@@ -44,13 +57,14 @@ struct Namespaces {
 }
 
 impl Namespaces {
-    fn create() -> Self {
+    /// Namespaces and interfaces named after the process and `tag` (one per test).
+    fn create(tag: char) -> Self {
         let id = std::process::id();
         let namespaces = Self {
-            plc: format!("pnplc{id}"),
-            device: format!("pndev{id}"),
-            plc_interface: format!("pnva{id}"),
-            device_interface: format!("pnvb{id}"),
+            plc: format!("pnplc{tag}{id}"),
+            device: format!("pndev{tag}{id}"),
+            plc_interface: format!("pnva{tag}{id}"),
+            device_interface: format!("pnvb{tag}{id}"),
         };
         ip(&["netns", "add", &namespaces.plc]);
         ip(&["netns", "add", &namespaces.device]);
@@ -79,6 +93,8 @@ impl Namespaces {
             ip(&["link", "set", interface, "netns", namespace]);
             ip(&["-n", namespace, "link", "set", interface, "up"]);
             ip(&["-n", namespace, "addr", "add", address, "dev", interface]);
+            // The gateway and rc plc talk over the loopback of the PLC namespace.
+            ip(&["-n", namespace, "link", "set", "lo", "up"]);
         }
         namespaces
     }
@@ -147,7 +163,8 @@ impl Drop for Running {
     }
 }
 
-fn start_device(namespaces: &Namespaces, store: &Path) -> Running {
+/// `profinet-dcp` in the device namespace, with `extra` options.
+fn start_device(namespaces: &Namespaces, store: &Path, extra: &[&str]) -> Running {
     let child = Namespaces::command(
         &namespaces.device,
         Path::new(env!("CARGO_BIN_EXE_profinet-dcp")),
@@ -164,6 +181,7 @@ fn start_device(namespaces: &Namespaces, store: &Path) -> Running {
     ])
     .arg("--store")
     .arg(store)
+    .args(extra)
     .env("RUST_LOG", "info")
     .stdout(Stdio::null())
     .stderr(Stdio::inherit())
@@ -269,17 +287,12 @@ fn decode(tshark: &Path, file: &Path) -> (String, String) {
 
 #[test]
 fn profinet_py_discovers_renames_signals_and_resets_the_device() {
-    // SAFETY: geteuid has no preconditions.
-    if unsafe { libc::geteuid() } != 0 {
-        eprintln!(
-            "SKIPPED profinet_py_discovers_renames_signals_and_resets_the_device: needs root \
-             (network namespaces and raw sockets)"
-        );
+    if !running_as_root("profinet_py_discovers_renames_signals_and_resets_the_device") {
         return;
     }
     let venv = profinet_py_venv();
     let tshark = tshark();
-    let namespaces = Namespaces::create();
+    let namespaces = Namespaces::create('d');
     let work = std::env::temp_dir().join(format!("profinet-dcp-netns-{}", std::process::id()));
     std::fs::create_dir_all(&work).expect("work folder");
     let store = work.join("station");
@@ -288,7 +301,7 @@ fn profinet_py_discovers_renames_signals_and_resets_the_device() {
         .as_deref()
         .map(|tshark| start_capture(tshark, &namespaces, &capture_file));
     let mac = namespaces.device_mac();
-    let mut device = start_device(&namespaces, &store);
+    let mut device = start_device(&namespaces, &store, &[]);
 
     // Identify all finds our identity.
     let found = profinet_py(&venv, &namespaces, &["discover"]);
@@ -319,7 +332,7 @@ fn profinet_py_discovers_renames_signals_and_resets_the_device() {
 
     // The permanent name survives a restart.
     device.interrupt_and_wait();
-    let mut device = start_device(&namespaces, &store);
+    let mut device = start_device(&namespaces, &store, &[]);
     let name = profinet_py(&venv, &namespaces, &["get-param", &mac, "name"]);
     assert_eq!(name.trim(), "cell1-robot");
 
@@ -360,5 +373,271 @@ fn profinet_py_discovers_renames_signals_and_resets_the_device() {
             "malformed frames {malformed}in:\n{summary}"
         );
     }
+    let _ = std::fs::remove_dir_all(&work);
+}
+
+/// The intervals between our input frames (FrameID `frame_id`) in the capture, sorted, in
+/// milliseconds.
+fn input_frame_intervals(tshark: &Path, file: &Path, frame_id: &str) -> Vec<f64> {
+    let times = run(Command::new(tshark).arg("-r").arg(file).args([
+        "-Y",
+        &format!("pn_rt.frame_id == {frame_id}"),
+        "-T",
+        "fields",
+        "-e",
+        "frame.time_epoch",
+    ]));
+    let times: Vec<f64> = String::from_utf8_lossy(&times.stdout)
+        .lines()
+        .filter_map(|line| line.trim().parse().ok())
+        .collect();
+    let mut intervals: Vec<f64> = times.windows(2).map(|w| (w[1] - w[0]) * 1e3).collect();
+    intervals.sort_by(f64::total_cmp);
+    intervals
+}
+
+#[test]
+fn profinet_py_connects_and_exchanges_cyclic_data_with_the_srci_module() {
+    if !running_as_root("profinet_py_connects_and_exchanges_cyclic_data_with_the_srci_module") {
+        return;
+    }
+    let venv = profinet_py_venv();
+    let tshark = tshark();
+    let namespaces = Namespaces::create('c');
+    let work = std::env::temp_dir().join(format!("profinet-rt-netns-{}", std::process::id()));
+    std::fs::create_dir_all(&work).expect("work folder");
+    let capture_file = work.join("rt.pcapng");
+    let mut capture = tshark
+        .as_deref()
+        .map(|tshark| start_capture(tshark, &namespaces, &capture_file));
+    let mut device = start_device(&namespaces, &work.join("station"), &["--srci-echo", "64"]);
+    let gsdml = repository().join("config/GSDML-V2.41-rc-SRCI-20261122.xml");
+    let gsdml = gsdml.to_str().expect("a UTF-8 path");
+
+    // profinet-py's legacy start-up: a device-access AR reads RealIdentificationData, then
+    // the IO AR (RTClass 1, output FrameID chosen by the device), PrmEnd, ApplicationReady.
+    let exchanged = profinet_py(
+        &venv,
+        &namespaces,
+        &[
+            "cyclic",
+            FACTORY_NAME,
+            "--gsdml",
+            gsdml,
+            "--cycle-ms",
+            "8",
+            "--duration",
+            "3",
+        ],
+    );
+    for expected in [
+        "Discovering slots... 4 entries",
+        "slot=1 sub=1: 64B in, 64B out",
+        "PrmEnd OK",
+        "ApplicationReady OK",
+        "Input frame: 0xC001, Output frame: 0xC000",
+    ] {
+        assert!(
+            exchanged.contains(expected),
+            "{expected:?} not in:\n{exchanged}"
+        );
+    }
+    let stopped = exchanged
+        .lines()
+        .find(|line| line.starts_with("Stopped."))
+        .unwrap_or_else(|| panic!("no summary in:\n{exchanged}"));
+    let count = |key: &str| -> u32 {
+        stopped
+            .split_whitespace()
+            .find_map(|field| field.strip_prefix(key))
+            .and_then(|value| value.parse().ok())
+            .unwrap_or_else(|| panic!("no {key} in {stopped:?}"))
+    };
+    // 3 s at 8 ms: about 375 frames each way, none of ours missed.
+    assert!(count("RX=") >= 300, "{stopped}");
+    assert_eq!(count("missed="), 0, "{stopped}");
+    device.interrupt_and_wait();
+
+    if let (Some(tshark), Some(capture)) = (tshark.as_deref(), capture.as_mut()) {
+        capture.interrupt_and_wait();
+        let (summary, malformed) = decode(tshark, &capture_file);
+        assert!(
+            malformed.trim().is_empty(),
+            "malformed frames {malformed}in:\n{summary}"
+        );
+        let intervals = input_frame_intervals(tshark, &capture_file, "0xc001");
+        assert!(intervals.len() >= 300, "{} input frames", intervals.len());
+        let at = |q: f64| intervals[((intervals.len() - 1) as f64 * q) as usize];
+        eprintln!(
+            "input frames at 8 ms: {} intervals, p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms",
+            intervals.len(),
+            at(0.5),
+            at(0.99),
+            at(1.0)
+        );
+        // Deadlines are absolute: the median is the cycle.
+        assert!((at(0.5) - 8.0).abs() < 0.5, "p50 {}", at(0.5));
+    }
+    let _ = std::fs::remove_dir_all(&work);
+}
+
+/// The `rc` executable, built by `cargo build --bin rc` in the shared target folder (or
+/// `RC_BIN`); `None` (the test skips) when it is not built, except under CI.
+fn rc_binary() -> Option<PathBuf> {
+    let rc = std::env::var_os("RC_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repository().join("target/debug/rc"));
+    if rc.exists() {
+        return Some(rc);
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "{} is missing: CI must build it first (cargo build --bin rc)",
+        rc.display()
+    );
+    None
+}
+
+/// Waits until `file` contains `text`; panics with the file after `timeout`.
+fn wait_for_text(file: &Path, text: &str, timeout: Duration) {
+    let deadline = Instant::now() + timeout;
+    loop {
+        let content = std::fs::read_to_string(file).unwrap_or_default();
+        if content.contains(text) {
+            return;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "{text:?} did not appear in {}:\n{content}",
+            file.display()
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn rc_plc_runs_the_demo_program_through_profinet_py_and_a_real_link() {
+    if !running_as_root("rc_plc_runs_the_demo_program_through_profinet_py_and_a_real_link") {
+        return;
+    }
+    let Some(rc) = rc_binary() else {
+        eprintln!("SKIPPED: target/debug/rc is not built (cargo build --bin rc)");
+        return;
+    };
+    let venv = profinet_py_venv();
+    let namespaces = Namespaces::create('e');
+    let work = std::env::temp_dir().join(format!("profinet-e2e-netns-{}", std::process::id()));
+    std::fs::create_dir_all(&work).expect("work folder");
+    let config_file = work.join("rc.toml");
+    let default = std::fs::read_to_string(repository().join("config/default.toml"))
+        .expect("config/default.toml");
+    let mut config = default.clone();
+    for (from, to) in [
+        (
+            "instance = \"rc\"",
+            format!("instance = \"pne{}\"", std::process::id()),
+        ),
+        ("transport = \"tcp\"", "transport = \"profinet\"".to_owned()),
+        (
+            "interface = \"eth0\"",
+            format!("interface = \"{}\"", namespaces.device_interface),
+        ),
+        ("ip = \"0.0.0.0\"", format!("ip = \"{DEVICE_IP}\"")),
+        (
+            "netmask = \"0.0.0.0\"",
+            "netmask = \"255.255.255.0\"".to_owned(),
+        ),
+        (
+            "data_dir = \"\"",
+            format!("data_dir = \"{}\"", work.display()),
+        ),
+    ] {
+        assert!(config.contains(from), "{from} not in config/default.toml");
+        config = config.replace(from, &to);
+    }
+    std::fs::write(&config_file, config).expect("write the config");
+
+    // The controller, with the PROFINET transport, in the device namespace.
+    let controller_log = work.join("rc.log");
+    let log = std::fs::File::create(&controller_log).expect("log file");
+    let _controller = Running(
+        Namespaces::command(&namespaces.device, &rc)
+            .arg("run")
+            .arg("--config")
+            .arg(&config_file)
+            .stdout(log.try_clone().expect("log file"))
+            .stderr(log)
+            .spawn()
+            .expect("start rc run"),
+    );
+    wait_for_text(
+        &controller_log,
+        "DCP responder listening",
+        Duration::from_secs(60),
+    );
+
+    // The gateway: profinet-py as the IO-controller, TCP for rc plc.
+    let gateway_log = work.join("gateway.log");
+    let log = std::fs::File::create(&gateway_log).expect("log file");
+    let gsdml = repository().join("config/GSDML-V2.41-rc-SRCI-20261122.xml");
+    let mut gateway = Running(
+        Namespaces::command(&namespaces.plc, &venv.join("bin/python"))
+            .arg(repository().join("services/profinet/tests/srci_gateway.py"))
+            .arg(&namespaces.plc_interface)
+            .arg(FACTORY_NAME)
+            .arg(&gsdml)
+            .args([
+                "--listen",
+                "127.0.0.1:5000",
+                "--cycle-ms",
+                "8",
+                "--size",
+                "256",
+            ])
+            .stdout(log.try_clone().expect("log file"))
+            .stderr(log)
+            .spawn()
+            .expect("start the gateway"),
+    );
+    wait_for_text(&gateway_log, "gateway ready", Duration::from_secs(30));
+    wait_for_text(
+        &controller_log,
+        "ApplicationReady confirmed",
+        Duration::from_secs(5),
+    );
+
+    // The demo program, through TCP, the gateway, PROFINET and the fieldbus process. The
+    // gateway's round trip takes three input frames: a lifesign timeout of 200 ms.
+    let program = run(Namespaces::command(&namespaces.plc, &rc)
+        .arg("plc")
+        .arg(repository().join("plc-client/programs/demo.toml"))
+        .args([
+            "--addr",
+            "127.0.0.1:5000",
+            "--lifesign-ms",
+            "200",
+            "--config",
+        ])
+        .arg(&config_file));
+    let stdout = String::from_utf8_lossy(&program.stdout);
+    assert!(
+        program.status.success() && stdout.contains("result: SUCCESS"),
+        "rc plc failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&program.stderr)
+    );
+
+    // The PLC goes silent: the watchdog ends the AR and the session, as a lifesign timeout.
+    gateway.0.kill().expect("kill the gateway");
+    let _ = gateway.0.wait();
+    wait_for_text(
+        &controller_log,
+        "the PLC's cyclic data stopped",
+        Duration::from_secs(2),
+    );
+    wait_for_text(
+        &controller_log,
+        "event=Disconnected",
+        Duration::from_secs(2),
+    );
     let _ = std::fs::remove_dir_all(&work);
 }

@@ -9,22 +9,31 @@
 //!
 //! The name and IP are the factory values; values set permanently over DCP are kept in the
 //! store file and win at the next start.
+//!
+//! With `--srci-echo 64|128|256` it runs the whole IO-device (DCP, connection management,
+//! cyclic exchange) with an SRCI module of that size whose input data echoes the PLC's
+//! output data: the device side of the cyclic tests against a third-party controller.
 
 use std::net::Ipv4Addr;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use profinet::cm::ar::{CmDevice, activity};
+use profinet::cm::record::Identification;
 use profinet::dcp::responder::DcpResponder;
 use profinet::dcp::station::{
     DeviceIdentity, IpParameter, MemoryStore, NameOfStation, PermanentStore, StationParameters,
 };
+use profinet::device::{DEVICE_ID, DeviceModel, TYPE_OF_STATION, VENDOR_ID};
 use profinet::link::dcp_service::DcpService;
 use profinet::link::file_store::FileStore;
+use profinet::link::io_device::{DeviceEvent, IoDevice, IoDeviceError};
 use profinet::link::raw_socket::RawSocket;
+use profinet::rt::c_sdu::SrciModuleSize;
 
-/// TypeOfStation the device reports.
-const TYPE_OF_STATION: &str = "rc SRCI robot controller";
+/// Longest wait of one device poll, so that shutdown is noticed.
+const POLL_INTERVAL: std::time::Duration = std::time::Duration::from_millis(20);
 
 struct Options {
     interface: String,
@@ -32,6 +41,7 @@ struct Options {
     store: Option<String>,
     vendor_id: u16,
     device_id: u16,
+    echo: Option<SrciModuleSize>,
 }
 
 fn parse_options() -> Result<Options, String> {
@@ -39,8 +49,9 @@ fn parse_options() -> Result<Options, String> {
     let mut name = NameOfStation::default();
     let mut ip = IpParameter::UNSET;
     let mut store = None;
-    let mut vendor_id = 0xffff;
-    let mut device_id = 0x0001;
+    let mut vendor_id = VENDOR_ID;
+    let mut device_id = DEVICE_ID;
+    let mut echo = None;
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {
         let value = args.next().ok_or_else(|| format!("{flag} needs a value"))?;
@@ -64,6 +75,14 @@ fn parse_options() -> Result<Options, String> {
             "--store" => store = Some(value.clone()),
             "--vendor-id" => vendor_id = id()?,
             "--device-id" => device_id = id()?,
+            "--srci-echo" => {
+                echo = Some(match value.as_str() {
+                    "64" => SrciModuleSize::Bytes64,
+                    "128" => SrciModuleSize::Bytes128,
+                    "256" => SrciModuleSize::Bytes256,
+                    _ => return Err(format!("--srci-echo {value}: 64, 128 or 256")),
+                })
+            }
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -79,6 +98,7 @@ fn parse_options() -> Result<Options, String> {
         store,
         vendor_id,
         device_id,
+        echo,
     })
 }
 
@@ -96,9 +116,48 @@ fn serve<S: PermanentStore>(options: Options, store: S) -> Result<(), String> {
     let flag = Arc::clone(&shutdown);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .map_err(|e| format!("cannot handle SIGINT/SIGTERM: {e}"))?;
-    DcpService::new(socket, responder)
-        .run(&shutdown)
-        .map_err(|e| e.to_string())
+    match options.echo {
+        None => DcpService::new(socket, responder)
+            .run(&shutdown)
+            .map_err(|e| e.to_string()),
+        Some(size) => echo(socket, responder, size, &shutdown).map_err(|e| e.to_string()),
+    }
+}
+
+/// The IO-device with an SRCI module whose input data is the last valid output data.
+fn echo<S: PermanentStore>(
+    socket: RawSocket,
+    responder: DcpResponder<S>,
+    size: SrciModuleSize,
+    shutdown: &AtomicBool,
+) -> Result<(), IoDeviceError> {
+    let mac = socket.mac();
+    let seed = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let device = CmDevice {
+        model: DeviceModel::srci(size),
+        identification: Identification::robot_controller("echo"),
+        mac,
+        activity: activity(mac, seed),
+    };
+    let mut device = IoDevice::open(socket, responder, device)?;
+    let length = usize::from(size.data_length());
+    let mut input = [0u8; 256];
+    let mut received = [0u8; 256];
+    while !shutdown.load(Ordering::Relaxed) {
+        let mut fresh = false;
+        device.poll(POLL_INTERVAL, &input[..length], false, |event| {
+            if let DeviceEvent::Output(data) = event {
+                received[..data.len()].copy_from_slice(data);
+                fresh = true;
+            }
+        })?;
+        if fresh {
+            input = received;
+        }
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {

@@ -195,7 +195,7 @@ fn once<T>(slot: &mut Option<T>, header: BlockHeader, value: T) -> Result<(), Co
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::rt::frame::RtFrame;
     use crate::rt::ioxs::Ioxs;
@@ -203,7 +203,7 @@ mod tests {
     use pnio::rpc::Drep;
 
     /// The RPC PDU of the golden S7-1515 Connect (Ethernet, IPv4 and UDP headers cut).
-    fn golden_pdu() -> Vec<u8> {
+    pub(crate) fn golden_pdu() -> Vec<u8> {
         testdata::frame("connect_req")[42..].to_vec()
     }
 
@@ -263,7 +263,7 @@ mod tests {
 
     /// The golden PDU cut down to its ARBlockReq, turned into a device-access AR: what
     /// profinet-py sends first (no IOCR, no AlarmCR).
-    fn device_access_pdu() -> Vec<u8> {
+    pub(crate) fn device_access_pdu() -> Vec<u8> {
         let golden = golden_pdu();
         let blocks = &golden[RpcHeader::LEN + NdrRequest::LEN..];
         let ar_len = 4 + usize::from(u16::from_be_bytes([blocks[2], blocks[3]]));

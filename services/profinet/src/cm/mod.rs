@@ -1,7 +1,10 @@
-//! Connection management (CM) over DCE/RPC: the codecs come from `pnio` (see the design
-//! note in the crate root), the decisions are ours.
+//! Connection management (CM) over DCE/RPC, UDP port 34964: the codecs come from `pnio`
+//! (see the design note in the crate root), the decisions are ours ([`ar`]).
 
+pub mod ar;
 pub mod connect;
 pub mod connect_response;
 pub mod iocr;
 pub mod module_diff;
+pub mod record;
+pub mod rpc;

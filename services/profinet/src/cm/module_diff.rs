@@ -112,7 +112,7 @@ fn length_matches(expected: Option<DataDescription>, real: u16) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::cm::connect::ConnectRequest;
     use crate::device::{self, SubmoduleModel};
@@ -129,7 +129,7 @@ mod tests {
     }
 
     /// What TIA would send for a controller configured exactly like `model`.
-    fn expected_for(model: &DeviceModel) -> Vec<ExpectedSubmoduleBlockReq> {
+    pub(crate) fn expected_for(model: &DeviceModel) -> Vec<ExpectedSubmoduleBlockReq> {
         let slot = |slot: u16| {
             let submodules: Vec<&SubmoduleModel> = model
                 .submodules()

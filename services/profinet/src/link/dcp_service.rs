@@ -30,6 +30,7 @@ pub struct DcpService<S: PermanentStore> {
     socket: RawSocket,
     responder: DcpResponder<S>,
     pending: VecDeque<PendingReply>,
+    reply: Vec<u8>,
 }
 
 impl<S: PermanentStore> DcpService<S> {
@@ -39,6 +40,7 @@ impl<S: PermanentStore> DcpService<S> {
             socket,
             responder,
             pending: VecDeque::with_capacity(MAX_PENDING),
+            reply: vec![0; MAX_FRAME_LEN],
         }
     }
 
@@ -47,10 +49,30 @@ impl<S: PermanentStore> DcpService<S> {
         &self.responder
     }
 
+    /// The raw socket, shared with the cyclic exchange of an IO device.
+    pub fn socket(&self) -> &RawSocket {
+        &self.socket
+    }
+
     /// Serves until `shutdown` becomes true.
     pub fn run(&mut self, shutdown: &AtomicBool) -> Result<(), RawSocketError> {
         let mut received = vec![0u8; RECEIVE_BUFFER_LEN];
-        let mut reply = vec![0u8; MAX_FRAME_LEN];
+        self.log_listening();
+        while !shutdown.load(Ordering::Relaxed) {
+            let now = Instant::now();
+            self.send_due(now)?;
+            let wait = self.next_due().map_or(POLL_INTERVAL, |due| {
+                due.saturating_duration_since(now).min(POLL_INTERVAL)
+            });
+            if let Some(len) = self.socket.receive(&mut received, wait)? {
+                self.on_frame(&received[..len])?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Logs what the responder answers as.
+    pub fn log_listening(&self) {
         let station = self.responder.current();
         tracing::info!(
             interface = self.socket.interface(),
@@ -59,56 +81,54 @@ impl<S: PermanentStore> DcpService<S> {
             ip = %station.ip.address,
             "DCP responder listening"
         );
-        while !shutdown.load(Ordering::Relaxed) {
-            let now = Instant::now();
-            self.send_due(now)?;
-            let wait = self
-                .pending
-                .iter()
-                .map(|p| p.due.saturating_duration_since(now))
-                .min()
-                .map_or(POLL_INTERVAL, |due| due.min(POLL_INTERVAL));
-            let Some(len) = self.socket.receive(&mut received, wait)? else {
-                continue;
-            };
-            let outcome = match self.responder.handle(&received[..len], &mut reply) {
-                Ok(outcome) => outcome,
-                Err(error) => {
-                    tracing::debug!(%error, "malformed DCP request ignored");
-                    continue;
-                }
-            };
-            if outcome.signal {
-                tracing::info!("DCP Signal: flash the identification LED");
-            }
-            if outcome.changed {
-                let station = self.responder.current();
-                tracing::info!(
-                    name_of_station = station.name_of_station.as_str(),
-                    ip = %station.ip.address,
-                    subnet_mask = %station.ip.subnet_mask,
-                    gateway = %station.ip.gateway,
-                    "station parameters changed by DCP"
-                );
-            }
-            if let Some(answer) = outcome.reply {
-                let frame = &reply[..answer.len];
-                if answer.delay.is_zero() {
-                    self.socket.send(frame)?;
-                } else if self.pending.len() < MAX_PENDING {
-                    self.pending.push_back(PendingReply {
-                        due: Instant::now() + answer.delay,
-                        frame: frame.to_vec(),
-                    });
-                } else {
-                    tracing::warn!("too many delayed DCP replies; one dropped");
-                }
-            }
-        }
-        Ok(())
     }
 
-    fn send_due(&mut self, now: Instant) -> Result<(), RawSocketError> {
+    /// When the next delayed reply is due.
+    pub fn next_due(&self) -> Option<Instant> {
+        self.pending.iter().map(|p| p.due).min()
+    }
+
+    /// Answers one received DCP frame (sent at once, or held back for its response
+    /// delay); returns true when the station parameters changed.
+    pub fn on_frame(&mut self, frame: &[u8]) -> Result<bool, RawSocketError> {
+        let outcome = match self.responder.handle(frame, &mut self.reply) {
+            Ok(outcome) => outcome,
+            Err(error) => {
+                tracing::debug!(%error, "malformed DCP request ignored");
+                return Ok(false);
+            }
+        };
+        if outcome.signal {
+            tracing::info!("DCP Signal: flash the identification LED");
+        }
+        if outcome.changed {
+            let station = self.responder.current();
+            tracing::info!(
+                name_of_station = station.name_of_station.as_str(),
+                ip = %station.ip.address,
+                subnet_mask = %station.ip.subnet_mask,
+                gateway = %station.ip.gateway,
+                "station parameters changed by DCP"
+            );
+        }
+        if let Some(answer) = outcome.reply {
+            let frame = &self.reply[..answer.len];
+            if answer.delay.is_zero() {
+                self.socket.send(frame)?;
+            } else if self.pending.len() < MAX_PENDING {
+                self.pending.push_back(PendingReply {
+                    due: Instant::now() + answer.delay,
+                    frame: frame.to_vec(),
+                });
+            } else {
+                tracing::warn!("too many delayed DCP replies; one dropped");
+            }
+        }
+        Ok(outcome.changed)
+    }
+
+    /// Sends the delayed replies due at `now`.
+    pub fn send_due(&mut self, now: Instant) -> Result<(), RawSocketError> {
         while let Some(index) = self.pending.iter().position(|p| p.due <= now) {
             if let Some(due) = self.pending.remove(index) {
                 self.socket.send(&due.frame)?;

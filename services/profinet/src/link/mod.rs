@@ -1,6 +1,8 @@
-//! The thin shell: a raw Ethernet socket on a named interface and the DCP service loop that
-//! feeds it to the pure [`crate::dcp::responder`], and the file behind the permanent store.
+//! The thin shell: a raw Ethernet socket on a named interface, the DCP service that feeds
+//! it to the pure [`crate::dcp::responder`], the file behind the permanent store, and the
+//! IO device that adds PNIO-CM over UDP and the cyclic exchange.
 
 pub mod dcp_service;
 pub mod file_store;
+pub mod io_device;
 pub mod raw_socket;

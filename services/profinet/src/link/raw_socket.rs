@@ -241,3 +241,9 @@ fn hardware_address(fd: &OwnedFd, name: &CString) -> io::Result<MacAddress> {
     }
     Ok(MacAddress(mac))
 }
+
+impl std::os::fd::AsFd for RawSocket {
+    fn as_fd(&self) -> std::os::fd::BorrowedFd<'_> {
+        self.fd.as_fd()
+    }
+}

@@ -1,0 +1,306 @@
+//! Record data: what a Read returns (I&M0, RealIdentificationData) and what a Write does
+//! with each record (PDInterfaceAdjust kept, the rest refused by name), with the Write
+//! response carrying one PNIOStatus per record.
+//!
+//! The record codecs of `pnio` parse the requests and encode I&M0; the Write response is
+//! written here because `pnio`'s answers every record with OK.
+
+use pnio::cm::block::{BlockHeader, ty};
+use pnio::cm::{INDEX_MULTIPLE_WRITE, PnioStatus, ReadReq, Record};
+use pnio::im::encode_im0;
+pub use pnio::im::{Im0, SwRevision};
+use pnio::rpc::Drep;
+
+use crate::device::{API, DeviceModel, INTERFACE_SUBSLOT};
+
+/// Index of I&M0.
+pub const INDEX_IM0: u16 = 0xaff0;
+/// Index of RealIdentificationData for one AR's API (what profinet-py reads to find the
+/// slots).
+pub const INDEX_REAL_IDENTIFICATION_DATA: u16 = 0xf000;
+/// Index of PDInterfaceAdjust (interface submodule).
+pub const INDEX_PD_INTERFACE_ADJUST: u16 = 0x8071;
+/// I&M records this device answers: I&M0 only.
+const IM_SUPPORTED: u16 = 0x0000;
+/// BlockType of RealIdentificationData.
+const BLOCK_REAL_IDENTIFICATION_DATA: u16 = 0x0013;
+/// Fixed part of an IODWriteResHeader body after its block header.
+const WRITE_RES_BODY_LEN: u16 = 58;
+
+/// The identity a Read of I&M0 reports.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Identification {
+    /// VendorID.
+    pub vendor_id: u16,
+    /// The I&M0 fields.
+    pub im0: Im0,
+}
+
+impl Identification {
+    /// This robot controller's identity, with `serial_number` (cut to the 16 characters
+    /// I&M0 holds).
+    pub fn robot_controller(serial_number: &str) -> Self {
+        Self {
+            vendor_id: crate::device::VENDOR_ID,
+            im0: Im0 {
+                order_id: "rc-srci".into(),
+                serial_number: serial_number.chars().take(16).collect(),
+                hardware_revision: 1,
+                software_revision: SwRevision {
+                    prefix: 'V',
+                    functional: 0,
+                    bug_fix: 1,
+                    internal: 0,
+                },
+                revision_counter: 0,
+                profile_id: 0,
+                profile_specific_type: 0,
+            },
+        }
+    }
+}
+
+/// PNIOStatus of a Read or Write of an index this device does not have.
+pub fn invalid_index(write: bool) -> PnioStatus {
+    PnioStatus::new(read_write_code(write), 0x80, 0xb0, 0x00)
+}
+
+/// PNIOStatus of a Read or Write of a slot or subslot this device does not have.
+pub fn invalid_slot(write: bool) -> PnioStatus {
+    PnioStatus::new(read_write_code(write), 0x80, 0xb2, 0x00)
+}
+
+/// PNIOStatus.ErrorCode of a failed Read (0xDE) or Write (0xDF).
+fn read_write_code(write: bool) -> u8 {
+    if write { 0xdf } else { 0xde }
+}
+
+/// The record a Read asks for.
+pub fn read_record(
+    request: &ReadReq,
+    model: &DeviceModel,
+    identification: &Identification,
+) -> Result<Vec<u8>, PnioStatus> {
+    if request.index == INDEX_REAL_IDENTIFICATION_DATA {
+        return Ok(real_identification_data(model));
+    }
+    if request.api != API || model.submodule(request.slot, request.subslot).is_none() {
+        return Err(invalid_slot(false));
+    }
+    match request.index {
+        INDEX_IM0 => Ok(encode_im0(
+            identification.vendor_id,
+            &identification.im0,
+            IM_SUPPORTED,
+        )),
+        _ => Err(invalid_index(false)),
+    }
+}
+
+/// RealIdentificationData version 1.1: every slot with its module and submodules.
+pub fn real_identification_data(model: &DeviceModel) -> Vec<u8> {
+    let submodules = model.submodules();
+    let mut slots: Vec<u16> = submodules.iter().map(|s| s.slot).collect();
+    slots.dedup();
+    let mut body = Vec::new();
+    body.extend_from_slice(&1u16.to_be_bytes());
+    body.extend_from_slice(&API.to_be_bytes());
+    body.extend_from_slice(&count(slots.len()).to_be_bytes());
+    for slot in slots {
+        let in_slot: Vec<_> = submodules.iter().filter(|s| s.slot == slot).collect();
+        body.extend_from_slice(&slot.to_be_bytes());
+        body.extend_from_slice(&in_slot[0].module_ident.to_be_bytes());
+        body.extend_from_slice(&count(in_slot.len()).to_be_bytes());
+        for submodule in in_slot {
+            body.extend_from_slice(&submodule.subslot.to_be_bytes());
+            body.extend_from_slice(&submodule.submodule_ident.to_be_bytes());
+        }
+    }
+    let mut out = Vec::with_capacity(BlockHeader::LEN + body.len());
+    out.extend_from_slice(&BLOCK_REAL_IDENTIFICATION_DATA.to_be_bytes());
+    out.extend_from_slice(&count(body.len() + 2).to_be_bytes());
+    out.extend_from_slice(&[1, 1]);
+    out.extend_from_slice(&body);
+    out
+}
+
+/// The device model has four submodules; the counts and lengths here stay tiny.
+fn count(n: usize) -> u16 {
+    u16::try_from(n).unwrap_or(u16::MAX)
+}
+
+/// What the device keeps from a controller's Writes.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct WrittenRecords {
+    /// The last PDInterfaceAdjust record (its data, block header included).
+    pub pd_interface_adjust: Option<Vec<u8>>,
+}
+
+/// Applies one record of a Write and returns its status: PDInterfaceAdjust on the
+/// interface submodule is kept; records of submodules this device does not have, and
+/// indices it does not know, are refused.
+pub fn write_record(record: &Record, model: &DeviceModel, kept: &mut WrittenRecords) -> PnioStatus {
+    if record.api != API || model.submodule(record.slot, record.subslot).is_none() {
+        return invalid_slot(true);
+    }
+    match (record.subslot, record.index) {
+        (INTERFACE_SUBSLOT, INDEX_PD_INTERFACE_ADJUST) => {
+            kept.pd_interface_adjust = Some(record.data.clone());
+            PnioStatus::OK
+        }
+        _ => invalid_index(true),
+    }
+}
+
+/// The Write response blocks: one IODWriteResHeader per record, in request order, the
+/// MultipleWrite container's first (always OK: its own statuses are per record).
+pub fn write_response(records: &[(Record, PnioStatus)]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(records.len() * 64);
+    for (record, status) in records {
+        BlockHeader::write(&mut out, ty::IOD_WRITE_RES_HEADER, WRITE_RES_BODY_LEN);
+        out.extend_from_slice(&record.seq.to_be_bytes());
+        record.ar_uuid.write(&mut out, Drep::BIG);
+        out.extend_from_slice(&record.api.to_be_bytes());
+        out.extend_from_slice(&record.slot.to_be_bytes());
+        out.extend_from_slice(&record.subslot.to_be_bytes());
+        out.extend_from_slice(&[0; 2]);
+        out.extend_from_slice(&record.index.to_be_bytes());
+        // RecordDataLength and AdditionalValue1/2.
+        out.extend_from_slice(&[0; 8]);
+        out.extend_from_slice(&status.to_u32().to_be_bytes());
+        out.extend_from_slice(&[0; 16]);
+    }
+    out
+}
+
+/// True for the MultipleWrite container record.
+pub fn is_multiple_write(record: &Record) -> bool {
+    record.index == INDEX_MULTIPLE_WRITE
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::{DAP_SLOT, DAP_SUBSLOT, SRCI_SLOT};
+    use crate::rt::c_sdu::SrciModuleSize;
+    use crate::testdata;
+    use pnio::cm::WriteReq;
+    use pnio::rpc::{NdrRequest, RpcHeader};
+
+    fn model() -> DeviceModel {
+        DeviceModel::srci(SrciModuleSize::Bytes256)
+    }
+
+    /// The PNIO blocks of a golden request.
+    fn blocks(name: &str) -> Vec<u8> {
+        testdata::frame(name)[42 + RpcHeader::LEN + NdrRequest::LEN..].to_vec()
+    }
+
+    /// p-net's identity in the golden I&M0 response.
+    pub(crate) fn p_net_identification() -> Identification {
+        Identification {
+            vendor_id: 0x0493,
+            im0: Im0 {
+                order_id: "12345 Abcdefghijk".into(),
+                serial_number: "007".into(),
+                hardware_revision: 3,
+                software_revision: SwRevision {
+                    prefix: 'V',
+                    functional: 0,
+                    bug_fix: 2,
+                    internal: 0,
+                },
+                revision_counter: 0,
+                profile_id: 0x1234,
+                profile_specific_type: 0x5678,
+            },
+        }
+    }
+
+    #[test]
+    fn i_and_m0_is_read_on_a_known_submodule_only() {
+        let request = ReadReq::parse(&blocks("im0_read_req")).unwrap();
+        assert_eq!((request.slot, request.subslot), (DAP_SLOT, DAP_SUBSLOT));
+        let record = read_record(&request, &model(), &p_net_identification()).unwrap();
+        let golden = testdata::frame("im0_read_res");
+        // The golden I&M0 says IM_Supported 0x000E (p-net has I&M1..3); this device
+        // answers 0.
+        assert_eq!(record[..58], golden[golden.len() - 60..golden.len() - 2]);
+        assert_eq!(record[58..], [0, 0]);
+        let mut elsewhere = request.clone();
+        elsewhere.slot = 7;
+        assert_eq!(
+            read_record(&elsewhere, &model(), &p_net_identification()),
+            Err(invalid_slot(false))
+        );
+        let mut other = request;
+        other.index = 0xaff1;
+        assert_eq!(
+            read_record(&other, &model(), &p_net_identification()),
+            Err(invalid_index(false))
+        );
+    }
+
+    #[test]
+    fn the_robot_controller_s_serial_number_is_cut_to_what_i_and_m0_holds() {
+        let im0 = Identification::robot_controller("a serial number longer than 16").im0;
+        assert_eq!(im0.serial_number, "a serial number ");
+        im0.validate().unwrap();
+    }
+
+    #[test]
+    fn real_identification_data_lists_every_slot_and_subslot() {
+        let data = real_identification_data(&model());
+        let body = &data[BlockHeader::LEN..];
+        // Type 0x0013, the length after it, version 1.1.
+        let length = u16::try_from(body.len() + 2).unwrap().to_be_bytes();
+        assert_eq!(data[..6], [0, 0x13, length[0], length[1], 1, 1]);
+        #[rustfmt::skip]
+        let expected = [
+            0, 1, 0, 0, 0, 0, 0, 2, // one API (0) with two slots
+            0, 0, 0, 0, 0, 1, 0, 3, // slot 0: DAP, three submodules
+            0, 1, 0, 0, 0, 1, 0x80, 0, 0, 0, 0x80, 0, 0x80, 1, 0, 0, 0x80, 1,
+            0, 1, 0, 1, 1, 0, 0, 1, // slot 1: SRCI 256, one submodule
+            0, 1, 0, 1, 1, 0,
+        ];
+        assert_eq!(body, expected);
+        assert_eq!(SRCI_SLOT, 1);
+    }
+
+    #[test]
+    fn pd_interface_adjust_is_kept_and_foreign_records_are_refused() {
+        let request = WriteReq::parse(&blocks("write_req")).unwrap();
+        let mut kept = WrittenRecords::default();
+        let answered: Vec<(Record, PnioStatus)> = request
+            .records
+            .iter()
+            .map(|record| {
+                let status = if is_multiple_write(record) {
+                    PnioStatus::OK
+                } else {
+                    write_record(record, &model(), &mut kept)
+                };
+                (record.clone(), status)
+            })
+            .collect();
+        let adjust = request
+            .records
+            .iter()
+            .find(|r| r.index == INDEX_PD_INTERFACE_ADJUST)
+            .unwrap();
+        assert_eq!(kept.pd_interface_adjust.as_ref(), Some(&adjust.data));
+        // p-net's slots 3 and 4 do not exist here: their records get "invalid slot"
+        // where p-net said OK; everything else is p-net's response byte for byte.
+        let ours = write_response(&answered);
+        let golden = testdata::frame("write_res");
+        let golden = &golden[golden.len() - ours.len()..];
+        for (i, (record, status)) in answered.iter().enumerate() {
+            let (ours, golden) = (&ours[i * 64..][..64], &golden[i * 64..][..64]);
+            assert_eq!(ours[..44], golden[..44]);
+            assert_eq!(ours[48..], golden[48..]);
+            assert_eq!(ours[44..48], status.to_u32().to_be_bytes());
+            let foreign = record.slot == 3 || record.slot == 4;
+            assert_eq!(*status != PnioStatus::OK, foreign, "{record:?}");
+        }
+    }
+}

@@ -1,0 +1,364 @@
+//! The IO-device shell: one raw socket (DCP and the cyclic frames) and one UDP socket
+//! (PNIO-CM on port 34964), polled together on the caller's thread, driving the pure
+//! [`DcpService`] responder, the [`Cm`] state machine and the cyclic [`Provider`] and
+//! [`Consumer`].
+//!
+//! The caller gives the robot→PLC telegram to send and receives the PLC→robot telegrams
+//! and the AR's events. In data exchange nothing here allocates: frames go through
+//! buffers allocated at start-up.
+
+use std::io;
+use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::os::fd::{AsFd, AsRawFd};
+use std::time::{Duration, Instant};
+
+use pnio::rpc::PNIO_UDP_PORT;
+
+use super::dcp_service::DcpService;
+use super::raw_socket::{RawSocket, RawSocketError};
+use crate::cm::ar::{ArEnd, Cm, CmDevice, CmEvent, CmOutput};
+use crate::dcp::responder::DcpResponder;
+use crate::dcp::station::PermanentStore;
+use crate::ethernet::{ETHER_TYPE_PROFINET, EthernetHeader, MAX_FRAME_LEN};
+use crate::frame_id::{FrameUse, frame_use};
+use crate::rt::cyclic::{Consumed, Consumer, CyclicError, Expiry, Provider};
+use crate::rt::frame::RtFrame;
+
+/// Room for a received frame: the longest one with a VLAN tag.
+const RECEIVE_BUFFER_LEN: usize = MAX_FRAME_LEN + 4;
+/// Room for a received CM datagram.
+const DATAGRAM_BUFFER_LEN: usize = 4096;
+
+/// The IO device cannot run.
+#[derive(Debug, thiserror::Error)]
+pub enum IoDeviceError {
+    /// The raw socket failed.
+    #[error(transparent)]
+    Raw(#[from] RawSocketError),
+    /// The CM socket failed.
+    #[error("UDP port {PNIO_UDP_PORT} (PNIO-CM): {0}")]
+    Udp(io::Error),
+    /// poll(2) failed.
+    #[error("poll on the PROFINET sockets failed: {0}")]
+    Poll(io::Error),
+}
+
+/// What the IO device reports to its application.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DeviceEvent<'a> {
+    /// An IO AR was established: a PLC session begins.
+    Connected,
+    /// The PLC's valid SRCI data of one cycle.
+    Output(&'a [u8]),
+    /// The IO AR ended: released, given up or timed out.
+    Ended(SessionEnd),
+}
+
+/// Why the IO AR ended, as the application sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SessionEnd {
+    /// The controller or the connection management ended it.
+    Ar(ArEnd),
+    /// The PLC's frames stopped or stayed invalid: as a lifesign timeout.
+    Consumer(Expiry),
+}
+
+/// The running cyclic exchange of the IO AR.
+#[derive(Debug)]
+struct Exchange {
+    provider: Provider,
+    consumer: Consumer,
+}
+
+/// A PROFINET IO-device on one interface.
+#[derive(Debug)]
+pub struct IoDevice<S: PermanentStore> {
+    dcp: DcpService<S>,
+    udp: UdpSocket,
+    cm: Cm,
+    exchange: Option<Exchange>,
+    epoch: Instant,
+    received: Vec<u8>,
+    sent: Vec<u8>,
+    datagram: Vec<u8>,
+}
+
+impl<S: PermanentStore> IoDevice<S> {
+    /// Opens the sockets: `socket` on the interface (its responder answers DCP) and UDP
+    /// port 34964 on every address.
+    pub fn open(
+        socket: RawSocket,
+        responder: DcpResponder<S>,
+        device: CmDevice,
+    ) -> Result<Self, IoDeviceError> {
+        let udp =
+            UdpSocket::bind((Ipv4Addr::UNSPECIFIED, PNIO_UDP_PORT)).map_err(IoDeviceError::Udp)?;
+        udp.set_nonblocking(true).map_err(IoDeviceError::Udp)?;
+        let name = responder.current().name_of_station.as_str().to_owned();
+        let dcp = DcpService::new(socket, responder);
+        dcp.log_listening();
+        Ok(Self {
+            dcp,
+            udp,
+            cm: Cm::new(device, &name),
+            exchange: None,
+            epoch: Instant::now(),
+            received: vec![0; RECEIVE_BUFFER_LEN],
+            sent: vec![0; RECEIVE_BUFFER_LEN],
+            datagram: vec![0; DATAGRAM_BUFFER_LEN],
+        })
+    }
+
+    /// Runs the device for at most `max_wait`: sends the input frame when due with
+    /// `input` (the robot→PLC telegram; StationProblemIndicator cleared when
+    /// `station_problem`), answers DCP and CM, and hands what happens to `on_event`.
+    pub fn poll(
+        &mut self,
+        max_wait: Duration,
+        input: &[u8],
+        station_problem: bool,
+        mut on_event: impl FnMut(DeviceEvent<'_>),
+    ) -> Result<(), IoDeviceError> {
+        let now = self.epoch.elapsed();
+        self.provide(now, input, station_problem)?;
+        self.supervise(now, &mut on_event);
+        let output = self.cm.poll(now);
+        self.apply(output, &mut on_event)?;
+        self.dcp.send_due(Instant::now())?;
+
+        let wait = self.wait(now, max_wait);
+        let (raw_ready, udp_ready) = self.ready(wait)?;
+        if raw_ready {
+            self.receive_frames(&mut on_event)?;
+        }
+        if udp_ready {
+            self.receive_datagrams(&mut on_event)?;
+        }
+        Ok(())
+    }
+
+    fn provide(
+        &mut self,
+        now: Duration,
+        input: &[u8],
+        station_problem: bool,
+    ) -> Result<(), IoDeviceError> {
+        let Some(exchange) = &mut self.exchange else {
+            return Ok(());
+        };
+        if now < exchange.provider.due() {
+            return Ok(());
+        }
+        match exchange
+            .provider
+            .frame(now, input, station_problem, &mut self.sent)
+        {
+            Ok(len) => self.dcp.socket().send(&self.sent[..len])?,
+            Err(error) => {
+                tracing::warn!(%error, "input frame not sent");
+            }
+        }
+        Ok(())
+    }
+
+    fn supervise(&mut self, now: Duration, on_event: &mut impl FnMut(DeviceEvent<'_>)) {
+        let Some(expiry) = self
+            .exchange
+            .as_mut()
+            .and_then(|exchange| exchange.consumer.check(now))
+        else {
+            return;
+        };
+        tracing::warn!(?expiry, "the PLC's cyclic data stopped: the AR is aborted");
+        self.exchange = None;
+        self.cm.abort();
+        on_event(DeviceEvent::Ended(SessionEnd::Consumer(expiry)));
+    }
+
+    /// How long to wait for traffic: until the next input frame, the consumer's deadline
+    /// or a delayed DCP reply, at most `max_wait`.
+    fn wait(&self, now: Duration, max_wait: Duration) -> Duration {
+        let mut wait = max_wait;
+        if let Some(exchange) = &self.exchange {
+            wait = wait.min(exchange.provider.due().saturating_sub(now));
+            if let Some(deadline) = exchange.consumer.deadline() {
+                wait = wait.min(deadline.saturating_sub(now));
+            }
+        }
+        if let Some(due) = self.dcp.next_due() {
+            wait = wait.min(due.saturating_duration_since(Instant::now()));
+        }
+        wait
+    }
+
+    fn ready(&self, wait: Duration) -> Result<(bool, bool), IoDeviceError> {
+        let mut fds = [
+            libc::pollfd {
+                fd: self.dcp.socket().as_fd().as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            },
+            libc::pollfd {
+                fd: self.udp.as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            },
+        ];
+        // ppoll(2) rather than poll(2): a frame due in 0.7 ms must not wait 1 ms.
+        let timeout = libc::timespec {
+            tv_sec: libc::time_t::try_from(wait.as_secs()).unwrap_or(libc::time_t::MAX),
+            tv_nsec: libc::c_long::from(wait.subsec_nanos() as i32),
+        };
+        // SAFETY: `fds` is a valid array of two pollfd and `timeout` a valid timespec,
+        // both outliving the call; no signal mask is given.
+        let ready = unsafe {
+            libc::ppoll(
+                fds.as_mut_ptr(),
+                fds.len() as libc::nfds_t,
+                &timeout,
+                std::ptr::null(),
+            )
+        };
+        if ready < 0 {
+            let error = io::Error::last_os_error();
+            if error.kind() == io::ErrorKind::Interrupted {
+                return Ok((false, false));
+            }
+            return Err(IoDeviceError::Poll(error));
+        }
+        Ok((fds[0].revents != 0, fds[1].revents != 0))
+    }
+
+    fn receive_frames(
+        &mut self,
+        on_event: &mut impl FnMut(DeviceEvent<'_>),
+    ) -> Result<(), IoDeviceError> {
+        while let Some(len) = self
+            .dcp
+            .socket()
+            .receive(&mut self.received, Duration::ZERO)?
+        {
+            let frame = &self.received[..len];
+            let Ok((ethernet, payload)) = EthernetHeader::parse(frame) else {
+                continue;
+            };
+            if ethernet.ether_type != ETHER_TYPE_PROFINET || payload.len() < 2 {
+                continue;
+            }
+            match frame_use(u16::from_be_bytes([payload[0], payload[1]])) {
+                // The guard answers the DCP frame; the arm follows a new NameOfStation.
+                FrameUse::DcpGetSet | FrameUse::DcpIdentifyRequest
+                    if self.dcp.on_frame(frame)? =>
+                {
+                    let name = self.dcp.responder().current().name_of_station.as_str();
+                    self.cm.set_name_of_station(name);
+                }
+                FrameUse::Cyclic { .. } => {
+                    let Some(exchange) = &mut self.exchange else {
+                        continue;
+                    };
+                    let Ok((ethernet, rt)) = RtFrame::parse(frame) else {
+                        continue;
+                    };
+                    let now = self.epoch.elapsed();
+                    if let Consumed::Data(data) =
+                        exchange.consumer.on_frame(ethernet.source, &rt, now)
+                    {
+                        on_event(DeviceEvent::Output(data));
+                    }
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    fn receive_datagrams(
+        &mut self,
+        on_event: &mut impl FnMut(DeviceEvent<'_>),
+    ) -> Result<(), IoDeviceError> {
+        loop {
+            let (len, from) = match self.udp.recv_from(&mut self.datagram) {
+                Ok(received) => received,
+                Err(error) if error.kind() == io::ErrorKind::WouldBlock => return Ok(()),
+                Err(error) if error.kind() == io::ErrorKind::Interrupted => continue,
+                Err(error) => return Err(IoDeviceError::Udp(error)),
+            };
+            let now = self.epoch.elapsed();
+            match self.cm.on_datagram(&self.datagram[..len], from, now) {
+                Ok(output) => self.apply(output, on_event)?,
+                Err(error) => tracing::debug!(%error, %from, "PNIO-CM datagram ignored"),
+            }
+        }
+    }
+
+    /// Sends what the CM answered and acts on its events.
+    fn apply(
+        &mut self,
+        output: CmOutput,
+        on_event: &mut impl FnMut(DeviceEvent<'_>),
+    ) -> Result<(), IoDeviceError> {
+        if let Some(datagram) = output.datagram {
+            self.send_datagram(&datagram.pdu, datagram.to)?;
+        }
+        for event in output.events {
+            match event {
+                CmEvent::Connected(exchange) => {
+                    let now = self.epoch.elapsed();
+                    let input = exchange.input.config();
+                    let output = exchange.output.config();
+                    let started = Provider::new(
+                        &input,
+                        exchange.controller_mac,
+                        self.dcp.socket().mac(),
+                        now,
+                    )
+                    .map(|provider| Exchange {
+                        provider,
+                        consumer: Consumer::new(
+                            &output,
+                            exchange.controller_mac,
+                            exchange.output.accepted.watchdog,
+                            exchange.output.accepted.data_hold,
+                        ),
+                    });
+                    self.exchange = started_or_log(started);
+                    tracing::info!(
+                        controller = %exchange.controller_mac,
+                        input_frame_id = format_args!("{:#06x}", input.frame_id),
+                        output_frame_id = format_args!("{:#06x}", output.frame_id),
+                        cycle_us = input.timing.cycle().as_micros() as u64,
+                        srci = exchange.input.srci_object.is_some()
+                            && exchange.output.srci_object.is_some(),
+                        "IO AR connected"
+                    );
+                    on_event(DeviceEvent::Connected);
+                }
+                CmEvent::ParameterisationEnded => tracing::info!("IO AR: PrmEnd"),
+                CmEvent::DataExchange => tracing::info!("IO AR: ApplicationReady confirmed"),
+                CmEvent::Ended(end) => {
+                    tracing::info!(?end, "IO AR ended");
+                    self.exchange = None;
+                    on_event(DeviceEvent::Ended(SessionEnd::Ar(end)));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn send_datagram(&self, pdu: &[u8], to: SocketAddr) -> Result<(), IoDeviceError> {
+        match self.udp.send_to(pdu, to) {
+            Ok(_) => Ok(()),
+            // A full send queue loses this datagram; DCE/RPC retransmits.
+            Err(error) if error.kind() == io::ErrorKind::WouldBlock => Ok(()),
+            Err(error) => Err(IoDeviceError::Udp(error)),
+        }
+    }
+}
+
+/// The exchange, or none (logged) when its CR cannot be served.
+fn started_or_log(started: Result<Exchange, CyclicError>) -> Option<Exchange> {
+    started
+        .inspect_err(|error| tracing::warn!(%error, "cyclic exchange not started"))
+        .ok()
+}
