@@ -24,7 +24,7 @@
 //!   AlarmCRBlockReq) are pure and pinned to the S7-1515 capture, so [`cm`] uses them
 //!   (`pnio` with default features off: no `pcap-file`), as are its DCE/RPC header and NDR
 //!   writers, its Control, Read and Write request parsers, its Read response and its I&M0
-//!   encoding. The decisions are ours, because
+//!   encoding, and its alarm channel (RTA) and diagnosis store. The decisions are ours, because
 //!   its `cm::connect` grouping and validation refuse what we must accept: RTClass 1 with
 //!   FrameIDs 0xC000.., an output FrameID 0xFFFF outside 0x8000.., a device-access AR
 //!   without an AlarmCR (profinet-py's first connect); and its Connect response builder
@@ -42,12 +42,15 @@
 //! IOxS, DataStatus, cycle counter, the provider and the consumer with watchdog and
 //! data-hold time), [`device`] (identity; DAP, interface, port, SRCI module), [`cm`] (the
 //! DCE/RPC envelope, the Connect request on `pnio`'s codecs, IOCR acceptance, the
-//! ModuleDiff content, the Connect response blocks, records, and the AR state machine:
-//! Connect, Write, PrmEnd, ApplicationReady with its retries, Release, Read). Shell:
+//! ModuleDiff content, the Connect response blocks with the ModuleDiffBlock, records, and
+//! the AR state machine: Connect, Write, PrmEnd, ApplicationReady with its retries,
+//! Release, Read), [`alarm`] (the diagnosis alarm of a robot error over `pnio`'s RTA
+//! channel). Shell:
 //! [`link`] (AF_PACKET socket, the DCP service, the file store, and the IO device that
 //! polls the raw and the UDP socket together); `src/bin/profinet-dcp.rs` runs the DCP
 //! responder, or with `--srci-echo` the whole device with an echoing SRCI module.
 
+pub mod alarm;
 pub mod cm;
 pub mod dcp;
 pub mod device;

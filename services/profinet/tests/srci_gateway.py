@@ -10,7 +10,8 @@ input frame).
 Usage (in the PLC namespace, as root):
     python srci_gateway.py IFACE STATION GSDML --listen 127.0.0.1:5000 --cycle-ms 8 --size 256
 
-Prints "gateway ready" once the AR is in data exchange.
+Prints "gateway ready" once the AR is in data exchange, and "alarm: TYPE" for every alarm
+of the device (profinet-py's AlarmListener acknowledges it).
 """
 
 import argparse
@@ -119,6 +120,12 @@ def main():
     parser.add_argument("--size", type=int, default=256)
     args = parser.parse_args()
     conn, cyclic = connect(args)
+    # The device's diagnosis alarms (robot error appears / disappears) must be
+    # acknowledged, or the device gives the AR up after its RTA retries.
+    alarms = conn.create_alarm_listener(args.interface)
+    if alarms:
+        alarms.add_callback(lambda alarm: print(f"alarm: {alarm.alarm_type_name}", flush=True))
+        alarms.start()
     cyclic.start()
     try:
         serve(args, cyclic)
@@ -126,6 +133,8 @@ def main():
         pass
     finally:
         cyclic.stop()
+        if alarms:
+            alarms.stop()
         conn.close()
 
 

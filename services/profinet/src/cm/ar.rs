@@ -28,10 +28,12 @@ use super::connect::{
     AR_TYPE_DEVICE_ACCESS, AR_TYPE_IOC, ConnectError, ConnectRequest, IOCR_TYPE_INPUT,
     IOCR_TYPE_OUTPUT,
 };
-use super::connect_response::{ConnectAnswer, connect_response_blocks};
+use super::connect_response::{ConnectAnswer, LOCAL_ALARM_REFERENCE, connect_response_blocks};
 use super::iocr::{AcceptedIocr, IocrRefusal, accept_iocr};
+use super::module_diff::{SubmoduleDiff, module_diff};
 use super::record::{self, Identification, WrittenRecords};
 use super::rpc::{self, Call, RpcPdu};
+use crate::alarm::AlarmCr;
 use crate::device::{DeviceModel, SRCI_SLOT, SRCI_SUBSLOT};
 use crate::ethernet::MacAddress;
 use crate::rt::c_sdu::CSduLayout;
@@ -97,6 +99,10 @@ pub struct CyclicExchange {
     pub input: CyclicCr,
     /// The output CR (controller → device).
     pub output: CyclicCr,
+    /// The expected submodules that differ from the device (the ModuleDiffBlock).
+    pub module_diff: Vec<SubmoduleDiff>,
+    /// The alarm CR, when the controller asked for one.
+    pub alarm_cr: Option<AlarmCr>,
 }
 
 /// Why an IO AR ended.
@@ -217,6 +223,11 @@ impl Cm {
     /// The NameOfStation reported in the Connect response (DCP may change it).
     pub fn set_name_of_station(&mut self, name: &str) {
         name.clone_into(&mut self.name_of_station);
+    }
+
+    /// The device model the ARs are checked against.
+    pub fn model(&self) -> &DeviceModel {
+        &self.device.model
     }
 
     /// What the controller wrote and the device keeps.
@@ -365,10 +376,10 @@ impl Cm {
         from: SocketAddr,
     ) -> (PnioStatus, Vec<u8>, Vec<CmEvent>) {
         let mut events = Vec::new();
-        let frame_ids = match request.ar.ar_type {
+        let (frame_ids, differences) = match request.ar.ar_type {
             AR_TYPE_DEVICE_ACCESS => {
                 self.supervisor_ar = Some(request.ar.ar_uuid);
-                Vec::new()
+                (Vec::new(), Vec::new())
             }
             AR_TYPE_IOC => {
                 let controller_mac = MacAddress(request.ar.initiator_mac.0);
@@ -403,8 +414,9 @@ impl Cm {
                     state: ArState::Parameterising,
                 });
                 self.written = WrittenRecords::default();
+                let differences = exchange.module_diff.clone();
                 events.push(CmEvent::Connected(Box::new(exchange)));
-                frame_ids
+                (frame_ids, differences)
             }
             _ => {
                 let status = PnioStatus::connect_reject(ConnectBlock::ArBlock, FIELD_AR_TYPE);
@@ -416,6 +428,7 @@ impl Cm {
             device_mac: self.device.mac,
             name_of_station: &self.name_of_station,
             max_alarm_data_length: MAX_ALARM_DATA_LENGTH,
+            module_diff: &differences,
         };
         match connect_response_blocks(request, &answer) {
             Ok(blocks) => (PnioStatus::OK, blocks, events),
@@ -457,6 +470,11 @@ impl Cm {
             controller_mac,
             input: cr(input, accepted_input)?,
             output: cr(output, accepted_output)?,
+            module_diff: module_diff(&request.expected, &self.device.model),
+            alarm_cr: request
+                .alarm_cr
+                .as_ref()
+                .map(|cr| AlarmCr::negotiated(cr, LOCAL_ALARM_REFERENCE, MAX_ALARM_DATA_LENGTH)),
         })
     }
 
@@ -661,6 +679,7 @@ fn srci_object(
 mod tests {
     use super::*;
     use crate::cm::connect::tests::device_access_pdu;
+    use crate::cm::connect_response::MODULE_DIFF_BLOCK;
     use crate::cm::record::INDEX_REAL_IDENTIFICATION_DATA;
     use crate::frame_id::RtClass;
     use crate::rt::c_sdu::SrciModuleSize;
@@ -733,11 +752,47 @@ mod tests {
         rpc::request(&call, &blocks)
     }
 
+    /// The status and blocks of a response, but its ModuleDiffBlock: the S7 expects
+    /// p-net's modules, which p-net had and this device has not.
+    fn without_module_diff(pdu: &[u8]) -> (PnioStatus, Vec<u8>) {
+        let RpcPdu::Response { status, blocks, .. } = rpc::parse(pdu).unwrap() else {
+            panic!("not a response")
+        };
+        let mut kept = Vec::new();
+        let mut rest = blocks;
+        while !rest.is_empty() {
+            let (header, body) = pnio::cm::block::BlockHeader::parse(rest).unwrap();
+            let (block, after) = rest.split_at(pnio::cm::block::BlockHeader::LEN + body.len());
+            if header.block_type != MODULE_DIFF_BLOCK {
+                kept.extend_from_slice(block);
+            }
+            rest = after;
+        }
+        (status, kept)
+    }
+
+    /// The body of the ModuleDiffBlock among `blocks`, if there is one.
+    fn module_diff_body(blocks: &[u8]) -> Option<Vec<u8>> {
+        pnio::cm::block::BlockHeader::read_all(blocks)
+            .unwrap()
+            .into_iter()
+            .find(|(header, _)| header.block_type == MODULE_DIFF_BLOCK)
+            .map(|(_, body)| body.to_vec())
+    }
+
     #[test]
     fn the_golden_s7_start_up_is_answered_as_p_net_answered_it() {
         let mut cm = p_net();
         let connected = send(&mut cm, &udp("connect_req"));
-        assert_eq!(connected.datagram.as_ref().unwrap().pdu, udp("connect_res"));
+        assert_eq!(
+            without_module_diff(&connected.datagram.as_ref().unwrap().pdu),
+            without_module_diff(&udp("connect_res"))
+        );
+        let ours = connected.datagram.as_ref().unwrap();
+        let RpcPdu::Response { blocks, .. } = rpc::parse(&ours.pdu).unwrap() else {
+            panic!("not a response")
+        };
+        assert!(module_diff_body(blocks).is_some());
         assert_eq!(connected.datagram.as_ref().unwrap().to, s7());
         let [CmEvent::Connected(exchange)] = connected.events.as_slice() else {
             panic!("{:?}", connected.events)
@@ -897,8 +952,9 @@ mod tests {
         let mut cm = p_net();
         cm.device.model = DeviceModel::srci(SrciModuleSize::Bytes64);
         let request = srci_connect();
-        let (status, _, events) = cm.connect(&request, s7());
+        let (status, blocks, events) = cm.connect(&request, s7());
         assert!(status.is_ok(), "{status:?}");
+        assert_eq!(module_diff_body(&blocks), None);
         let [CmEvent::Connected(exchange)] = events.as_slice() else {
             panic!("{events:?}")
         };
@@ -909,11 +965,22 @@ mod tests {
         // Another module size in the project: the AR stands, the SRCI data is not used.
         cm.device.model = DeviceModel::srci(SrciModuleSize::Bytes128);
         cm.abort();
-        let (_, _, events) = cm.connect(&request, s7());
+        let (_, blocks, events) = cm.connect(&request, s7());
         let [CmEvent::Connected(exchange)] = events.as_slice() else {
             panic!("{events:?}")
         };
         assert_eq!(exchange.input.srci_object, None);
+        // ... and the controller learns why: slot 1 holds a wrong module, the 128-byte one.
+        #[rustfmt::skip]
+        let wrong_srci_module: &[u8] = &[
+            0, 1, 0, 0, 0, 0, 0, 1,
+            0, 1, 0, 1, 0, 0x80, 0, 1, 0, 1,
+            0, 1, 0, 1, 0, 0x80, 0x90, 0,
+        ];
+        assert_eq!(
+            module_diff_body(&blocks).as_deref(),
+            Some(wrong_srci_module)
+        );
     }
 
     #[test]

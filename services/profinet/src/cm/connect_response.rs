@@ -1,17 +1,20 @@
 //! The PNIO blocks of a Connect response: ARBlockRes, one IOCRBlockRes per IOCR (with the
-//! FrameID the device serves), AlarmCRBlockRes when the AR has an alarm CR, and
-//! ARServerBlockRes with the device's NameOfStation. PNIO blocks are big-endian whatever
+//! FrameID the device serves), AlarmCRBlockRes when the AR has an alarm CR, ModuleDiffBlock
+//! when the expected submodules differ from the real ones, and ARServerBlockRes with the device's NameOfStation. PNIO blocks are big-endian whatever
 //! the DREP of the DCE/RPC envelope.
 
 use pnio::cm::block::ty;
 
 use super::connect::ConnectRequest;
+use super::module_diff::SubmoduleDiff;
 use crate::ethernet::{ETHER_TYPE_PROFINET, MacAddress};
 
 /// AlarmCRType of the only alarm CR there is.
 const ALARM_CR_TYPE: u16 = 0x0001;
 /// This device's LocalAlarmReference.
-const LOCAL_ALARM_REFERENCE: u16 = 0x0000;
+pub const LOCAL_ALARM_REFERENCE: u16 = 0x0000;
+/// BlockType of the ModuleDiffBlock (not among `pnio`'s block types).
+pub const MODULE_DIFF_BLOCK: u16 = 0x8104;
 
 /// What the device answers beyond what the request says.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -25,6 +28,9 @@ pub struct ConnectAnswer<'a> {
     /// The longest alarm data the device sends; the answer is the smaller of this and
     /// what the controller offers.
     pub max_alarm_data_length: u16,
+    /// The expected submodules that differ from the device, in request order (see
+    /// `module_diff`); empty: no ModuleDiffBlock.
+    pub module_diff: &'a [SubmoduleDiff],
 }
 
 /// A response that cannot be written.
@@ -38,6 +44,9 @@ pub enum ConnectResponseError {
         /// IOCRs of the request.
         iocrs: usize,
     },
+    /// More APIs, modules or submodules than a ModuleDiffBlock count can say.
+    #[error("{0} entries are too many for a ModuleDiffBlock")]
+    ModuleDiffCount(usize),
     /// A block longer than a block length can say.
     #[error("a Connect response block of {0} bytes is too long")]
     BlockLength(usize),
@@ -92,6 +101,13 @@ pub fn connect_response_blocks(
             ],
         )?;
     }
+    if !answer.module_diff.is_empty() {
+        block(
+            &mut out,
+            MODULE_DIFF_BLOCK,
+            &[&module_diff_body(answer.module_diff)?],
+        )?;
+    }
     let name = answer.name_of_station.as_bytes();
     let name_length =
         u16::try_from(name.len()).map_err(|_| ConnectResponseError::BlockLength(name.len()))?;
@@ -108,6 +124,54 @@ pub fn connect_response_blocks(
         ],
     )?;
     Ok(out)
+}
+
+/// The body of a ModuleDiffBlock: NumberOfAPIs, per API its modules (SlotNumber,
+/// ModuleIdentNumber, ModuleState) and per module its submodules (SubslotNumber,
+/// SubmoduleIdentNumber, SubmoduleState). `diffs` lists one entry per submodule; the
+/// entries of one API and slot are grouped in the order they first appear.
+fn module_diff_body(diffs: &[SubmoduleDiff]) -> Result<Vec<u8>, ConnectResponseError> {
+    let mut out = Vec::new();
+    let apis = first_of_each(diffs, |d| d.api);
+    put_count(&mut out, apis.len())?;
+    for api in apis {
+        let in_api: Vec<&SubmoduleDiff> = diffs.iter().filter(|d| d.api == api.api).collect();
+        out.extend_from_slice(&api.api.to_be_bytes());
+        let modules = first_of_each(&in_api, |d| d.slot);
+        put_count(&mut out, modules.len())?;
+        for module in modules {
+            let submodules: Vec<&&SubmoduleDiff> =
+                in_api.iter().filter(|d| d.slot == module.slot).collect();
+            out.extend_from_slice(&module.slot.to_be_bytes());
+            out.extend_from_slice(&module.module_ident.to_be_bytes());
+            out.extend_from_slice(&module.module_state().to_be_bytes());
+            put_count(&mut out, submodules.len())?;
+            for submodule in submodules {
+                out.extend_from_slice(&submodule.subslot.to_be_bytes());
+                out.extend_from_slice(&submodule.submodule_ident.to_be_bytes());
+                out.extend_from_slice(&submodule.submodule_state().to_be_bytes());
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The first item of each distinct `key`, in order.
+fn first_of_each<T: Copy, K: PartialEq>(items: &[T], key: impl Fn(&T) -> K) -> Vec<T> {
+    let mut firsts: Vec<T> = Vec::new();
+    for item in items {
+        if !firsts.iter().any(|f| key(f) == key(item)) {
+            firsts.push(*item);
+        }
+    }
+    firsts
+}
+
+/// Appends a 16-bit count.
+fn put_count(out: &mut Vec<u8>, count: usize) -> Result<(), ConnectResponseError> {
+    let count = u16::try_from(count).map_err(|_| ConnectResponseError::ModuleDiffCount(count))?;
+    out.extend_from_slice(&count.to_be_bytes());
+    Ok(())
 }
 
 /// BlockType(2) BlockLength(2) BlockVersionHigh(1) BlockVersionLow(1).
@@ -151,6 +215,7 @@ mod tests {
             device_mac: MacAddress([0x8c, 0xf3, 0x19, 0xcd, 0x19, 0xf8]),
             name_of_station: "rt-labs-dev",
             max_alarm_data_length: 200,
+            module_diff: &[],
         }
     }
 
@@ -189,6 +254,53 @@ mod tests {
         assert_eq!(types, [ty::AR_BLOCK_RES, ty::AR_SERVER_BLOCK_RES]);
         let (_, server) = BlockHeader::read_all(&blocks).unwrap()[1];
         assert_eq!((BlockHeader::LEN + server.len()) % 4, 0);
+    }
+
+    #[test]
+    fn the_module_diff_block_groups_the_differences_by_api_and_slot() {
+        use crate::cm::module_diff::Mismatch;
+        let diff = |slot, subslot, module_ident, submodule_ident, mismatch| SubmoduleDiff {
+            api: 0,
+            slot,
+            subslot,
+            module_ident,
+            submodule_ident,
+            mismatch,
+        };
+        let diffs = [
+            diff(1, 1, 0x0001_0100, 0x0001_0100, Mismatch::WrongModule),
+            diff(0, 0x8001, 0x10, 0, Mismatch::NoSubmodule),
+            diff(2, 1, 0, 0, Mismatch::NoModule),
+            diff(1, 2, 0x0001_0100, 0, Mismatch::WrongModule),
+        ];
+        let mut request = request();
+        request.iocrs.clear();
+        request.alarm_cr = None;
+        let answer = ConnectAnswer {
+            module_diff: &diffs,
+            ..p_net_answer(&[])
+        };
+        let blocks = connect_response_blocks(&request, &answer).unwrap();
+        let all = BlockHeader::read_all(&blocks).unwrap();
+        let types: Vec<u16> = all.iter().map(|(h, _)| h.block_type).collect();
+        assert_eq!(
+            types,
+            [ty::AR_BLOCK_RES, MODULE_DIFF_BLOCK, ty::AR_SERVER_BLOCK_RES]
+        );
+        #[rustfmt::skip]
+        let expected: &[u8] = &[
+            0, 1, // NumberOfAPIs
+            0, 0, 0, 0, 0, 3, // API 0, NumberOfModules
+            0, 1, 0, 1, 1, 0, 0, 1, 0, 2, // slot 1, its real module, WrongModule, 2 submodules
+            0, 1, 0, 1, 1, 0, 0x90, 0, // subslot 1, real submodule, Wrong
+            0, 2, 0, 0, 0, 0, 0x90, 0, // subslot 2, none, Wrong
+            0, 0, 0, 0, 0, 0x10, 0, 2, 0, 1, // slot 0, ProperModule, 1 submodule
+            0x80, 0x01, 0, 0, 0, 0, 0x98, 0, // subslot 0x8001, none, NoSubmodule
+            0, 2, 0, 0, 0, 0, 0, 0, 0, 1, // slot 2, NoModule, 1 submodule
+            0, 1, 0, 0, 0, 0, 0x98, 0, // subslot 1, none, NoSubmodule
+        ];
+        assert_eq!(all[1].0.block_length, 2 + expected.len() as u16);
+        assert_eq!(all[1].1, expected);
     }
 
     #[test]

@@ -15,17 +15,11 @@ pub enum Mismatch {
     /// No module in the slot.
     NoModule,
     /// Another module in the slot.
-    WrongModule {
-        /// ModuleIdentNumber of the real module.
-        real: u32,
-    },
+    WrongModule,
     /// The module has no submodule in the subslot.
     NoSubmodule,
     /// Another submodule in the subslot.
-    WrongSubmodule {
-        /// SubmoduleIdentNumber of the real submodule.
-        real: u32,
-    },
+    WrongSubmodule,
     /// The submodule carries another number of data bytes (or none) in one direction.
     DataLength {
         /// True for the input direction (device → controller).
@@ -46,8 +40,50 @@ pub struct SubmoduleDiff {
     pub slot: u16,
     /// Subslot.
     pub subslot: u16,
+    /// ModuleIdentNumber of the real module in the slot (0: none).
+    pub module_ident: u32,
+    /// SubmoduleIdentNumber of the real submodule in the subslot (0: none).
+    pub submodule_ident: u32,
     /// How it differs.
     pub mismatch: Mismatch,
+}
+
+/// ModuleState of a ModuleDiffBlock: NoModule.
+const MODULE_STATE_NO_MODULE: u16 = 0;
+/// ModuleState: WrongModule.
+const MODULE_STATE_WRONG_MODULE: u16 = 1;
+/// ModuleState: ProperModule.
+const MODULE_STATE_PROPER_MODULE: u16 = 2;
+/// SubmoduleState FormatIndicator: the detailed format (IdentInfo, ARInfo, ...).
+const SUBMODULE_STATE_DETAILED: u16 = 0x8000;
+/// SubmoduleState IdentInfo (bits 11..14): Wrong.
+const IDENT_INFO_WRONG: u16 = 2 << 11;
+/// SubmoduleState IdentInfo: NoSubmodule.
+const IDENT_INFO_NO_SUBMODULE: u16 = 3 << 11;
+
+impl SubmoduleDiff {
+    /// The ModuleState of the slot this difference lies in.
+    pub fn module_state(&self) -> u16 {
+        match self.mismatch {
+            Mismatch::NoModule => MODULE_STATE_NO_MODULE,
+            Mismatch::WrongModule => MODULE_STATE_WRONG_MODULE,
+            Mismatch::NoSubmodule | Mismatch::WrongSubmodule | Mismatch::DataLength { .. } => {
+                MODULE_STATE_PROPER_MODULE
+            }
+        }
+    }
+
+    /// The SubmoduleState (detailed format, ARInfo "own") of the subslot. A data length
+    /// that differs makes the submodule a wrong one: the controller cannot exchange it.
+    pub fn submodule_state(&self) -> u16 {
+        let ident_info = match self.mismatch {
+            Mismatch::NoModule | Mismatch::NoSubmodule => IDENT_INFO_NO_SUBMODULE,
+            Mismatch::WrongModule | Mismatch::WrongSubmodule | Mismatch::DataLength { .. } => {
+                IDENT_INFO_WRONG
+            }
+        };
+        SUBMODULE_STATE_DETAILED | ident_info
+    }
 }
 
 /// The differences between what the controller expects and `model`, in request order;
@@ -60,30 +96,30 @@ pub fn module_diff(
     for api in expected.iter().flat_map(|block| &block.apis) {
         let in_slot = || model.submodules().iter().filter(|s| s.slot == api.slot);
         for wanted in &api.submodules {
+            let module = in_slot().next();
+            let real = in_slot().find(|s| s.subslot == wanted.subslot);
             let diff = |mismatch| SubmoduleDiff {
                 api: api.api,
                 slot: api.slot,
                 subslot: wanted.subslot,
+                module_ident: module.map_or(0, |m| m.module_ident),
+                submodule_ident: real.map_or(0, |s| s.submodule_ident),
                 mismatch,
             };
-            let Some(module) = in_slot().next() else {
+            let Some(module) = module else {
                 diffs.push(diff(Mismatch::NoModule));
                 continue;
             };
             if module.module_ident != api.module_ident {
-                diffs.push(diff(Mismatch::WrongModule {
-                    real: module.module_ident,
-                }));
+                diffs.push(diff(Mismatch::WrongModule));
                 continue;
             }
-            let Some(real) = in_slot().find(|s| s.subslot == wanted.subslot) else {
+            let Some(real) = real else {
                 diffs.push(diff(Mismatch::NoSubmodule));
                 continue;
             };
             if real.submodule_ident != wanted.submodule_ident {
-                diffs.push(diff(Mismatch::WrongSubmodule {
-                    real: real.submodule_ident,
-                }));
+                diffs.push(diff(Mismatch::WrongSubmodule));
                 continue;
             }
             let directions = [
@@ -182,7 +218,9 @@ pub(crate) mod tests {
                 api: 0,
                 slot: 1,
                 subslot: 1,
-                mismatch: Mismatch::WrongModule { real: 0x0001_0100 }
+                module_ident: 0x0001_0100,
+                submodule_ident: 0x0001_0100,
+                mismatch: Mismatch::WrongModule
             }]
         );
     }
@@ -209,7 +247,7 @@ pub(crate) mod tests {
         assert_eq!(
             mismatches,
             [
-                Mismatch::WrongSubmodule { real: 0x8001 },
+                Mismatch::WrongSubmodule,
                 Mismatch::NoSubmodule,
                 Mismatch::DataLength {
                     input: false,
@@ -232,7 +270,7 @@ pub(crate) mod tests {
         assert_eq!(
             summary,
             [
-                (1, Mismatch::WrongModule { real: 0x0001_0100 }),
+                (1, Mismatch::WrongModule),
                 (2, Mismatch::NoModule),
                 (3, Mismatch::NoModule),
                 (4, Mismatch::NoModule),

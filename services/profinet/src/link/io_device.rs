@@ -3,8 +3,10 @@
 //! [`DcpService`] responder, the [`Cm`] state machine and the cyclic [`Provider`] and
 //! [`Consumer`].
 //!
-//! The caller gives the robot→PLC telegram to send and receives the PLC→robot telegrams
-//! and the AR's events. In data exchange nothing here allocates: frames go through
+//! The caller gives the robot→PLC telegram to send and whether the robot has an error,
+//! and receives the PLC→robot telegrams and the AR's events. The robot error is also
+//! the diagnosis alarm of the SRCI submodule ([`DiagnosisAlarms`]). In data exchange
+//! nothing here allocates but an alarm when the robot error changes: frames go through
 //! buffers allocated at start-up.
 
 use std::io;
@@ -16,9 +18,11 @@ use pnio::rpc::PNIO_UDP_PORT;
 
 use super::dcp_service::DcpService;
 use super::raw_socket::{RawSocket, RawSocketError};
-use crate::cm::ar::{ArEnd, Cm, CmDevice, CmEvent, CmOutput};
+use crate::alarm::{AlarmOutput, DiagnosisAlarms};
+use crate::cm::ar::{ArEnd, Cm, CmDevice, CmEvent, CmOutput, CyclicExchange};
 use crate::dcp::responder::DcpResponder;
 use crate::dcp::station::PermanentStore;
+use crate::device::{SRCI_SLOT, SRCI_SUBSLOT};
 use crate::ethernet::{ETHER_TYPE_PROFINET, EthernetHeader, MAX_FRAME_LEN};
 use crate::frame_id::{FrameUse, frame_use};
 use crate::rt::cyclic::{Consumed, Consumer, CyclicError, Expiry, Provider};
@@ -68,6 +72,8 @@ pub enum SessionEnd {
 struct Exchange {
     provider: Provider,
     consumer: Consumer,
+    /// None when the controller asked for no alarm CR.
+    alarms: Option<DiagnosisAlarms>,
 }
 
 /// A PROFINET IO-device on one interface.
@@ -110,8 +116,9 @@ impl<S: PermanentStore> IoDevice<S> {
     }
 
     /// Runs the device for at most `max_wait`: sends the input frame when due with
-    /// `input` (the robot→PLC telegram; StationProblemIndicator cleared when
-    /// `station_problem`), answers DCP and CM, and hands what happens to `on_event`.
+    /// `input` (the robot→PLC telegram; StationProblemIndicator cleared and the
+    /// diagnosis alarm raised when `station_problem`, the robot's error), answers DCP,
+    /// CM and alarm acknowledgements, and hands what happens to `on_event`.
     pub fn poll(
         &mut self,
         max_wait: Duration,
@@ -122,6 +129,7 @@ impl<S: PermanentStore> IoDevice<S> {
         let now = self.epoch.elapsed();
         self.provide(now, input, station_problem)?;
         self.supervise(now, &mut on_event);
+        self.raise_alarms(station_problem, &mut on_event)?;
         let output = self.cm.poll(now);
         self.apply(output, &mut on_event)?;
         self.dcp.send_due(Instant::now())?;
@@ -161,6 +169,47 @@ impl<S: PermanentStore> IoDevice<S> {
         Ok(())
     }
 
+    /// Raises or clears the diagnosis alarm once the AR exchanges data, and resends an
+    /// unacknowledged one.
+    fn raise_alarms(
+        &mut self,
+        robot_error: bool,
+        on_event: &mut impl FnMut(DeviceEvent<'_>),
+    ) -> Result<(), IoDeviceError> {
+        let in_data_exchange = self.cm.in_data_exchange();
+        let Some(alarms) = self.exchange.as_mut().and_then(|e| e.alarms.as_mut()) else {
+            return Ok(());
+        };
+        let now = Instant::now();
+        let mut outputs = alarms.on_tick(now);
+        if in_data_exchange {
+            outputs.extend(alarms.robot_error(robot_error, now));
+        }
+        self.apply_alarms(outputs, on_event)
+    }
+
+    /// Sends the alarm frames and ends the AR when the alarm channel failed.
+    fn apply_alarms(
+        &mut self,
+        outputs: Vec<AlarmOutput>,
+        on_event: &mut impl FnMut(DeviceEvent<'_>),
+    ) -> Result<(), IoDeviceError> {
+        for output in outputs {
+            match output {
+                AlarmOutput::Send(frame) => self.dcp.socket().send(&frame)?,
+                AlarmOutput::Acknowledged { appeared } => {
+                    tracing::info!(appeared, "the controller acknowledged the diagnosis alarm");
+                }
+                AlarmOutput::AbortAr => {
+                    tracing::warn!("the alarm channel failed: the AR is aborted");
+                    let ended = self.cm.abort();
+                    self.apply(ended, on_event)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn supervise(&mut self, now: Duration, on_event: &mut impl FnMut(DeviceEvent<'_>)) {
         let Some(expiry) = self
             .exchange
@@ -183,6 +232,9 @@ impl<S: PermanentStore> IoDevice<S> {
             wait = wait.min(exchange.provider.due().saturating_sub(now));
             if let Some(deadline) = exchange.consumer.deadline() {
                 wait = wait.min(deadline.saturating_sub(now));
+            }
+            if let Some(deadline) = exchange.alarms.as_ref().and_then(DiagnosisAlarms::deadline) {
+                wait = wait.min(deadline.saturating_duration_since(Instant::now()));
             }
         }
         if let Some(due) = self.dcp.next_due() {
@@ -267,6 +319,14 @@ impl<S: PermanentStore> IoDevice<S> {
                         on_event(DeviceEvent::Output(data));
                     }
                 }
+                FrameUse::AlarmLow => {
+                    let Some(alarms) = self.exchange.as_mut().and_then(|e| e.alarms.as_mut())
+                    else {
+                        continue;
+                    };
+                    let outputs = alarms.on_frame(&self.received[..len], Instant::now());
+                    self.apply_alarms(outputs, on_event)?;
+                }
                 _ => {}
             }
         }
@@ -321,6 +381,7 @@ impl<S: PermanentStore> IoDevice<S> {
                             exchange.output.accepted.watchdog,
                             exchange.output.accepted.data_hold,
                         ),
+                        alarms: self.diagnosis_alarms(&exchange),
                     });
                     self.exchange = started_or_log(started);
                     tracing::info!(
@@ -332,6 +393,13 @@ impl<S: PermanentStore> IoDevice<S> {
                             && exchange.output.srci_object.is_some(),
                         "IO AR connected"
                     );
+                    if !exchange.module_diff.is_empty() {
+                        tracing::warn!(
+                            differences = ?exchange.module_diff,
+                            "the controller expects other submodules than this device has \
+                             (reported in the ModuleDiffBlock)"
+                        );
+                    }
                     on_event(DeviceEvent::Connected);
                 }
                 CmEvent::ParameterisationEnded => tracing::info!("IO AR: PrmEnd"),
@@ -344,6 +412,18 @@ impl<S: PermanentStore> IoDevice<S> {
             }
         }
         Ok(())
+    }
+
+    /// The diagnosis alarms of the AR `exchange` sets up, when it has an alarm CR.
+    fn diagnosis_alarms(&self, exchange: &CyclicExchange) -> Option<DiagnosisAlarms> {
+        let alarm_cr = exchange.alarm_cr?;
+        let srci = self.cm.model().submodule(SRCI_SLOT, SRCI_SUBSLOT)?;
+        Some(DiagnosisAlarms::new(
+            alarm_cr,
+            self.dcp.socket().mac(),
+            exchange.controller_mac,
+            srci,
+        ))
     }
 
     fn send_datagram(&self, pdu: &[u8], to: SocketAddr) -> Result<(), IoDeviceError> {
