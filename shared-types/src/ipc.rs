@@ -380,6 +380,9 @@ pub struct MotionStatus {
     pub active_job: u32,
     pub queued_jobs: u32,
     pub active_progress: f64,
+    /// TCP path length (m) the active Cartesian move (line or arc) still has to go; NaN
+    /// when no Cartesian move is active.
+    pub active_remaining_m: f64,
     /// Commanded joint positions and velocities (rad, rad/s).
     pub joints_rad: [f64; AXES],
     pub joint_velocities: [f64; AXES],
@@ -397,6 +400,8 @@ pub struct MotionStatus {
     pub constant_velocity: bool,
     /// The primary sequence is interrupted (GroupInterrupt) until GroupContinue.
     pub sequence_paused: bool,
+    /// Two moves are being blended (StatusRobotArm IsBlending).
+    pub blending: bool,
     /// Pending planner error (SRCI code), 0 = none. Cleared by `Reset`.
     pub error_code: u16,
     pub reserved: u16,
@@ -416,6 +421,7 @@ impl MotionStatus {
             active_job: 0,
             queued_jobs: 0,
             active_progress: 0.0,
+            active_remaining_m: f64::NAN,
             joints_rad: [0.0; AXES],
             joint_velocities: [0.0; AXES],
             flange_pose: [0.0; 6],
@@ -427,6 +433,7 @@ impl MotionStatus {
             decelerating: false,
             constant_velocity: false,
             sequence_paused: false,
+            blending: false,
             error_code: 0,
             reserved: 0,
         }

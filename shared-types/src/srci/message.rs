@@ -186,6 +186,14 @@ pub mod code {
     pub const INVALID_CONFIG_MODE_WRIST: u16 = 0x8D41;
     pub const INVALID_STEP_MODE: u16 = 0x8D42;
     pub const TOOL_NOT_EXISTING: u16 = 0x8D69;
+    /// CircPlane undefined.
+    pub const INVALID_CIRC_PLANE: u16 = 0x8D61;
+    /// CircMode undefined.
+    pub const INVALID_CIRC_MODE: u16 = 0x8D62;
+    /// A Tolerance given outside the CENTER mode.
+    pub const TOLERANCE_ONLY_CENTER: u16 = 0x8D63;
+    /// An Angle given outside the CENTER_WITH_ANGLE mode.
+    pub const ANGLE_ONLY_CENTER_WITH_ANGLE: u16 = 0x8D64;
     pub const FRAME_NOT_EXISTING: u16 = 0x8D70;
     pub const BLENDING_MODE_NOT_SUPPORTED: u16 = 0x8E05;
     pub const ORI_MODE_NOT_SUPPORTED: u16 = 0x8E08;

@@ -4,7 +4,7 @@ use super::tables as t;
 
 /// (command type, byte, bit) of every function that has a bit in RCSupportedFunctions.
 /// ReadActualPositionCyclic has a bit but no command type; it is listed in [`CYCLIC_POSITION`].
-pub const BITS: [(u16, u8, u8); 28] = [
+pub const BITS: [(u16, u8, u8); 37] = [
     (t::read_robot_data::TYPE, 0, 1),
     (t::enable_robot::TYPE, 0, 2),
     (t::group_reset::TYPE, 0, 3),
@@ -32,6 +32,15 @@ pub const BITS: [(u16, u8, u8); 28] = [
     (t::group_continue::TYPE, 3, 2),
     (t::group_interrupt::TYPE, 3, 3),
     (t::return_to_primary::TYPE, 3, 4),
+    (t::move_linear_absolute_j::TYPE, 3, 5),
+    (t::move_direct_relative::TYPE, 3, 6),
+    (t::move_axes_relative::TYPE, 3, 7),
+    (t::move_circular_absolute::TYPE, 4, 0),
+    (t::move_circular_relative::TYPE, 4, 1),
+    (t::move_linear_offset::TYPE, 4, 2),
+    (t::move_direct_offset::TYPE, 4, 3),
+    (t::wait_time::TYPE, 4, 4),
+    (t::move_linear_relative::TYPE, 7, 7),
     (t::write_robot_sw_limits::TYPE, 9, 0),
 ];
 
