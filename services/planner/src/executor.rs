@@ -8,12 +8,17 @@
 //! aborts the moves of its own sequence only. Drives switched off under a move hold it like
 //! a GroupInterrupt (0x6F02); a drive fault or a lost servo ends every move with an error.
 //!
+//! A move with a BlendingMode blends into the next move of its sequence if that one is
+//! buffered when the move's blend window begins (the executor decides that once per move,
+//! in a committed tick; [`blend`](crate::blend) plans the overlap); a WaitTime is a sequence
+//! element that stands still (see [`motion`](crate::motion)).
+//!
 //! Timeline: the feedback of servo tick `k` arrives, the executor commits the point for tick
 //! `k + 1` and looks ahead to `k + SETPOINT_WINDOW`. When wake-ups were missed, the servo
 //! used the look-ahead points of the last window; the executor replays those ticks first, so
 //! its state is always the one the servo followed.
 
-use shared_types::config::Config;
+use shared_types::config::{Config, JointLimitsRad};
 use shared_types::ipc::{
     AXES, DriveState, JointPoint, MotionCommand, MotionCommandKind, MotionSequence, MotionStatus,
     SETPOINT_WINDOW, ServoFeedback, ServoSetpoint,
@@ -21,15 +26,20 @@ use shared_types::ipc::{
 use shared_types::pose;
 use shared_types::srci::message::{code, state};
 
+use crate::blend::{self, BlendRequest, Blending, PathLeg};
+use crate::cartesian_path;
 use crate::events::EventLog;
-use crate::joint_move::{self, JointMove, move_limits};
+use crate::joint_move::{self, JointMove, Plan, move_limits};
 use crate::kinematics::selection::{CartesianTarget, ConfigModes, TurnMode, select};
 use crate::kinematics::turns::TurnNumbers;
 use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
 use crate::linear_move::{self, Arm, LinearMove, LinearPlan, TcpLimits};
-use crate::motion::{Dynamics, Motion, Phase};
+use crate::motion::{ActiveMove, Dynamics, Handover, Motion, Path, Phase, PlannedBlend, Running};
 use crate::queue::QueuedMove;
+use crate::safety_filter::{Intervention, SafetyFilter};
 use crate::sequences::{Cursor, Sequence, Sequences, overlap};
+use crate::targets;
+use crate::topp::PathTimer;
 
 /// Joint speed (rad/s) below which the servo feedback counts as standing still.
 const REST_VELOCITY: f64 = 1e-3;
@@ -46,6 +56,13 @@ pub struct Executor {
     kinematics: Kinematics,
     /// The UR-type geometry for configuration bits (`None` if the robot does not fit it).
     geometry: Option<ArmGeometry>,
+    /// Times Cartesian paths: with constant bounds for now (see [`PathTimer::unavailable`]).
+    path_timer: PathTimer,
+    /// The last guard before the servo: every point, committed or looked ahead, passes it.
+    guard: SafetyFilter,
+    /// The guard found a point outside the limits: the moves ended with an error and the
+    /// arm brakes under the guard until it stands.
+    guard_stop: bool,
     /// Configured interpolation period, s.
     period_s: f64,
     motion: Motion,
@@ -87,6 +104,10 @@ impl Executor {
             },
             kinematics: Kinematics::new(&config.robot.kinematics),
             geometry: ArmGeometry::new(&config.robot.kinematics).ok(),
+            path_timer: PathTimer::unavailable(),
+            guard: SafetyFilter::new(config.robot.limits_rad())
+                .expect("the safety filter's fixed problem layout is valid"),
+            guard_stop: false,
             period_s: config.main.servo.period_us as f64 * 1e-6,
             motion: Motion::at_rest([0.0; AXES], override_fraction),
             sequences: Sequences::with_capacity(queue_length),
@@ -109,6 +130,11 @@ impl Executor {
     /// The status after the last [`step`](Self::step).
     pub fn status(&self) -> &MotionStatus {
         &self.status
+    }
+
+    /// Whether two moves overlap now (SRCI IsBlending).
+    pub fn is_blending(&self) -> bool {
+        self.motion.is_blending()
     }
 
     /// Job events lost because too many waited for the status ring.
@@ -145,7 +171,10 @@ impl Executor {
         self.finish_stop();
         if self.synced && drive.is_enabled() {
             if self.tick <= feedback.tick {
-                self.prepare_next_move();
+                if !self.guard_stop {
+                    self.prepare_next_move();
+                }
+                self.prepare_blend(dt);
                 self.advance(dt);
                 self.finish_stop();
             }
@@ -238,12 +267,19 @@ impl Executor {
         self.accepted = Some((command.issuer, command.seq));
         self.status.acked_issuer = command.issuer;
         self.status.acked_seq = command.seq;
+        let start = self.start_of(command);
+        let command = &match targets::absolute(command, &start, &self.kinematics) {
+            Ok(absolute) => absolute,
+            Err(e) => return self.report(command.job, state::ERROR, e.code()),
+        };
         let job = command.job;
         let scope = MotionSequence::from_wire(command.sequence);
         match MotionCommandKind::from_wire(command.kind) {
-            Some(MotionCommandKind::MoveAxes | MotionCommandKind::MoveLinear) => {
-                self.accept_move(command, drive)
-            }
+            Some(
+                MotionCommandKind::MoveAxes
+                | MotionCommandKind::MoveLinear
+                | MotionCommandKind::MoveCircular,
+            ) => self.accept_move(command, drive),
             Some(MotionCommandKind::MoveDirect) => self.accept_move_direct(command, drive),
             Some(MotionCommandKind::Stop) => {
                 self.stop(scope, code::ABORTED_BY_GROUP_STOP);
@@ -267,9 +303,8 @@ impl Executor {
                 self.status.error_code = 0;
                 self.report(job, state::DONE, 0);
             }
-            Some(MotionCommandKind::MoveCircular | MotionCommandKind::Wait) | None => {
-                self.report(job, state::ERROR, code::NOT_IMPLEMENTED)
-            }
+            Some(MotionCommandKind::Wait) => self.accept_wait(command, drive),
+            None => self.report(job, state::ERROR, code::NOT_IMPLEMENTED),
         }
     }
 
@@ -279,22 +314,18 @@ impl Executor {
     /// if it starts there (see [`prepare_next_move`](Self::prepare_next_move)).
     fn accept_move(&mut self, command: &MotionCommand, drive: DriveState) {
         let job = command.job;
-        let sequence = Sequence::of_move(command);
-        let linear = command.kind == MotionCommandKind::MoveLinear as u8;
+        let linear = cartesian_path::is_cartesian(command);
         let limits = move_limits(&self.dynamics.limits, command);
         let valid = if linear {
             linear_move::validate(command).map_err(|e| e.code())
         } else {
             joint_move::validate(command, &limits).map_err(|e| e.code())
         };
-        if let Err(code) = valid {
+        if let Err(code) = valid.and(Blending::of(command).map(|_| ()).map_err(|e| e.code())) {
             return self.report(job, state::ERROR, code);
         }
-        if self.status.error_code != 0 {
-            return self.report(job, state::ERROR, code::DISABLED_DUE_TO_ERROR);
-        }
-        if !drive.is_enabled() {
-            return self.report(job, state::ERROR, code::ROBOT_DISABLED);
+        if let Some(code) = self.refusal(drive) {
+            return self.report(job, state::ERROR, code);
         }
         let start = self.start_of(command);
         let planned = if linear {
@@ -312,17 +343,142 @@ impl Executor {
                 .map(|_| QueuedMove::joint(*command))
                 .map_err(|e| e.code())
         };
-        let queued = match planned {
-            Ok(queued) => queued,
-            Err(code) => return self.report(job, state::ERROR, code),
-        };
+        match planned {
+            Ok(queued) => self.buffer(queued),
+            Err(code) => self.report(job, state::ERROR, code),
+        }
+    }
+
+    /// WaitTime: buffered in its sequence like a move that stands where the moves before it
+    /// end, for `duration_s` (see [`motion`](crate::motion)).
+    fn accept_wait(&mut self, command: &MotionCommand, drive: DriveState) {
+        let job = command.job;
+        if !(command.duration_s.is_finite() && command.duration_s >= 0.0) {
+            return self.report(job, state::ERROR, code::INVALID_TIME);
+        }
+        if let Some(code) = self.refusal(drive) {
+            return self.report(job, state::ERROR, code);
+        }
+        let mut wait = *command;
+        wait.joints_rad = self.start_of(command);
+        self.buffer(QueuedMove::joint(wait));
+    }
+
+    /// Why no move may be buffered now, if it may not: a pending error or disabled drives.
+    fn refusal(&self, drive: DriveState) -> Option<u16> {
+        if self.status.error_code != 0 {
+            Some(code::DISABLED_DUE_TO_ERROR)
+        } else if !drive.is_enabled() {
+            Some(code::ROBOT_DISABLED)
+        } else {
+            None
+        }
+    }
+
+    /// Appends an accepted move (or wait) to its sequence, after stopping that sequence if
+    /// the move aborts, and reports it BUFFERED.
+    fn buffer(&mut self, queued: QueuedMove) {
+        let command = &queued.command;
+        let sequence = Sequence::of_move(command);
         if command.aborting {
             self.stop(sequence.scope(), code::ABORTED_BY_MOTION_COMMAND);
         }
+        let job = command.job;
         match self.sequences.queue_mut(sequence).push(queued) {
             Ok(()) => self.report(job, state::BUFFERED, 0),
             Err(_) => self.report(job, state::ERROR, code::INTERNAL_ERROR),
         }
+    }
+
+    /// Decides, once per running move, whether it blends into the next move of its
+    /// sequence. The decision falls when the move's blend window begins: halfway through
+    /// it (the earliest overlap start) less the look-ahead of the setpoint window, since
+    /// what the servo has been sent must not change. A move whose next one is not buffered
+    /// by then (the CODESYS rule: both commanded in time), or whose StepMode holds after
+    /// it, ends with an exact stop. Runs before the committed tick of a step only.
+    fn prepare_blend(&mut self, dt: f64) {
+        let Phase::Running(running) = self.motion.phase else {
+            return;
+        };
+        if !matches!(running.handover, Handover::Undecided) {
+            return;
+        }
+        let lookahead = SETPOINT_WINDOW as f64 * dt;
+        let half = 0.5 * running.plan.timing().profile.duration();
+        let blending = self
+            .running
+            .filter(|queued| queued.command.job == running.active.job)
+            .and_then(|queued| Blending::of(&queued.command).ok());
+        let handover = match blending {
+            None | Some(Blending::ExactStop) => Handover::ExactStop,
+            Some(_) if running.active.hold_after => Handover::ExactStop,
+            Some(_) if running.tau + lookahead < half => return,
+            Some(blending) => self
+                .plan_blend(&running, blending, running.tau + lookahead)
+                .map_or(Handover::ExactStop, Handover::Blend),
+        };
+        if let Phase::Running(running) = &mut self.motion.phase {
+            running.handover = handover;
+        }
+    }
+
+    /// The blend of `running` into the next move of its sequence, if that is a joint or
+    /// Cartesian move planned from where `running` ends and the blend keeps the limits.
+    fn plan_blend(
+        &self,
+        running: &Running,
+        blending: Blending,
+        earliest_start: f64,
+    ) -> Option<PlannedBlend> {
+        let outgoing = self.running?;
+        let (sequence, next) = self.sequences.next(&Cursor::default(), self.motion.holds)?;
+        if sequence != running.active.sequence {
+            return None;
+        }
+        let corner = running.plan.target();
+        let reserve = self.dynamics.override_reserve;
+        let plan = if cartesian_path::is_cartesian(&next.command) {
+            match next.linear? {
+                LinearPlan::Move(m) if next.linear?.start() == &corner => Path::Linear(m),
+                _ => return None,
+            }
+        } else if next.command.kind == MotionCommandKind::MoveAxes as u8 {
+            match JointMove::plan(corner, &next.command, &self.dynamics.limits, reserve).ok()? {
+                Plan::Move(m) => Path::Joint(m),
+                Plan::Stationary => return None,
+            }
+        } else {
+            return None;
+        };
+        let robot = &self.dynamics.limits;
+        let (a, b) = (
+            move_limits(robot, &outgoing.command),
+            move_limits(robot, &next.command),
+        );
+        let limits = JointLimitsRad {
+            min: core::array::from_fn(|i| a.min[i].max(b.min[i])),
+            max: core::array::from_fn(|i| a.max[i].min(b.max[i])),
+            ..*robot
+        };
+        let leg = |path, command: &MotionCommand| PathLeg {
+            path,
+            kinematics: &self.kinematics,
+            tool: pose::isometry(command.tool),
+        };
+        let overlap = blend::plan(&BlendRequest {
+            outgoing: &leg(&running.plan, &outgoing.command),
+            incoming: &leg(&plan, &next.command),
+            blending,
+            corner,
+            earliest_start,
+            limits: &limits,
+            reserve,
+        })?;
+        Some(PlannedBlend {
+            next: ActiveMove::of(&next.command, sequence),
+            plan,
+            overlap,
+        })
     }
 
     /// The linear move of `command` from `start`, or the SRCI code why there is none.
@@ -334,6 +490,7 @@ impl Executor {
             geometry,
             joints: &limits,
             tcp: &self.dynamics.tcp,
+            timer: &self.path_timer,
         };
         LinearMove::plan(start, command, &arm, self.dynamics.override_reserve).map_err(|e| e.code())
     }
@@ -352,7 +509,7 @@ impl Executor {
             else {
                 return;
             };
-            let stale = front.command.kind == MotionCommandKind::MoveLinear as u8
+            let stale = cartesian_path::is_cartesian(&front.command)
                 && front.linear.is_none_or(|plan| plan.start() != &start);
             if !stale {
                 return;
@@ -432,7 +589,8 @@ impl Executor {
         };
         match (last, self.motion.phase) {
             (Some(last), _) => last.command.joints_rad,
-            (None, Phase::Running { plan, .. }) => plan.target(),
+            (None, Phase::Running(Running { plan, .. })) => plan.target(),
+            (None, Phase::Blending(blend)) => blend.plan.target(),
             (None, _) => self.motion.point.q,
         }
     }
@@ -476,8 +634,16 @@ impl Executor {
         let Some(active) = self.motion.running() else {
             return;
         };
+        let wait_left = match self.motion.phase {
+            Phase::Waiting { left_s, .. } => Some(left_s),
+            _ => None,
+        };
         self.motion.brake();
-        if let Some(queued) = self.running.filter(|c| c.command.job == active.job) {
+        if let Some(mut queued) = self.running.filter(|c| c.command.job == active.job) {
+            // An interrupted wait goes on with the time it had left.
+            if let Some(left_s) = wait_left {
+                queued.command.duration_s = left_s;
+            }
             // Room is kept for exactly this move.
             let _ = self.sequences.queue_mut(active.sequence).push_front(queued);
         }
@@ -580,40 +746,77 @@ impl Executor {
     /// Commits the next tick of the real motion: events are reported, started moves leave
     /// the queue.
     fn advance(&mut self, dt: f64) {
-        let mut cursor = Cursor::default();
-        let events = &mut self.events;
-        self.motion.advance(
-            &self.dynamics,
-            &self.sequences,
-            &mut cursor,
-            dt,
-            self.override_target,
-            &mut |job, state, code| events.push(job, state, code),
-        );
-        for sequence in Sequence::BOTH {
-            for _ in 0..cursor.passed(sequence) {
-                self.running = self.sequences.queue_mut(sequence).pop_front();
+        let previous = self.motion.point;
+        let kinematics = &self.kinematics;
+        if self.guard_stop {
+            let braked = self.guard.brake(&previous, dt, |q| kinematics.jacobian(q));
+            self.motion.point = braked.point;
+            if braked.point.qd.iter().all(|v| *v == 0.0) {
+                self.guard_stop = false;
+                self.motion.point.qdd = [0.0; AXES];
+            }
+        } else {
+            let mut cursor = Cursor::default();
+            let events = &mut self.events;
+            self.motion.advance(
+                &self.dynamics,
+                &self.sequences,
+                &mut cursor,
+                dt,
+                self.override_target,
+                &mut |job, state, code| events.push(job, state, code),
+            );
+            for sequence in Sequence::BOTH {
+                for _ in 0..cursor.passed(sequence) {
+                    self.running = self.sequences.queue_mut(sequence).pop_front();
+                }
+            }
+            let guarded = self.guard.guard(&previous, &self.motion.point, dt, |q| {
+                kinematics.jacobian(q)
+            });
+            if guarded.intervention != Intervention::None {
+                tracing::error!(
+                    planned = ?self.motion.point,
+                    "safety filter: the planned point leaves the joint limits; stopping"
+                );
+                self.end_all(state::ERROR, code::MOTION_ERROR);
+                self.status.error_code = code::MOTION_ERROR;
+                self.motion.point = guarded.point;
+                self.guard_stop = true;
             }
         }
         self.tick = self.tick.wrapping_add(1);
     }
 
     /// The committed point and the points a copy of the motion takes in the following ticks.
-    fn window(&self, dt: f64) -> ServoSetpoint {
+    fn window(&mut self, dt: f64) -> ServoSetpoint {
         let mut ahead = self.motion;
         let mut cursor = Cursor::default();
+        let mut guard_stop = self.guard_stop;
+        let kinematics = &self.kinematics;
         let mut points = [JointPoint::default(); SETPOINT_WINDOW];
         points[0] = ahead.point;
-        for point in points.iter_mut().skip(1) {
-            ahead.advance(
-                &self.dynamics,
-                &self.sequences,
-                &mut cursor,
-                dt,
-                self.override_target,
-                &mut |_, _, _| {},
-            );
-            *point = ahead.point;
+        for k in 1..SETPOINT_WINDOW {
+            let previous = points[k - 1];
+            points[k] = if guard_stop {
+                self.guard
+                    .brake(&previous, dt, |q| kinematics.jacobian(q))
+                    .point
+            } else {
+                ahead.advance(
+                    &self.dynamics,
+                    &self.sequences,
+                    &mut cursor,
+                    dt,
+                    self.override_target,
+                    &mut |_, _, _| {},
+                );
+                let guarded = self
+                    .guard
+                    .guard(&previous, &ahead.point, dt, |q| kinematics.jacobian(q));
+                guard_stop = guarded.intervention != Intervention::None;
+                guarded.point
+            };
         }
         ServoSetpoint {
             planner_instance: self.status.instance,
@@ -630,16 +833,15 @@ impl Executor {
         let point = &self.motion.point;
         let s = &mut self.status;
         s.tick = feedback.tick;
-        match self.motion.phase {
-            Phase::Running { active, .. } => {
-                s.active_job = active.job;
-                s.active_progress = 100.0 * self.motion.path_position;
-            }
-            _ => {
-                s.active_job = 0;
-                s.active_progress = 0.0;
-            }
-        }
+        let active = self.motion.running();
+        s.active_job = active.map_or(0, |active| active.job);
+        s.active_progress = match self.motion.phase {
+            Phase::Waiting {
+                left_s, duration_s, ..
+            } => 100.0 * (1.0 - left_s / duration_s),
+            _ if active.is_some() => 100.0 * self.motion.path_position,
+            _ => 0.0,
+        };
         // The interpreter counts the primary moves waiting, held ones included.
         let primary = self.sequences.queue(Sequence::Primary).len();
         s.queued_jobs = u32::try_from(primary).unwrap_or(u32::MAX);
@@ -656,6 +858,17 @@ impl Executor {
         }
         s.override_fraction = self.override_target;
         s.sequence_paused = self.motion.holds.primary;
+        s.blending = self.motion.is_blending();
+        let active_plan = match &self.motion.phase {
+            Phase::Running(running) => Some(&running.plan),
+            Phase::Blending(blend) => Some(&blend.plan),
+            _ => None,
+        };
+        // Lines and arcs are parameterised by their length: s is the share travelled.
+        s.active_remaining_m = match active_plan {
+            Some(Path::Linear(m)) => (1.0 - self.motion.path_position).max(0.0) * m.length(),
+            _ => f64::NAN,
+        };
         // The path acceleration tells speeding up from slowing down, on any path.
         let (_, path_acceleration) = self.motion.path_rate;
         s.moving = point.qd.iter().any(|v| v.abs() > MOVING_VELOCITY);

@@ -9,7 +9,7 @@ use shared_types::config::JointLimitsRad;
 use shared_types::ipc::{AXES, JointPoint, MotionCommand};
 use shared_types::srci::message::code;
 
-use crate::profile::DoubleS;
+use crate::profile::{DoubleS, Profile};
 
 /// Largest joint displacement (rad) treated as no motion at all.
 const ZERO_LENGTH_RAD: f64 = 1e-12;
@@ -165,7 +165,7 @@ pub struct Timing {
     /// total, override changes and stops included.
     pub limits: PathLimits,
     /// The profile, planned with the acceleration reserve held back for override changes.
-    pub profile: DoubleS,
+    pub profile: Profile,
     /// Largest rate of change of the override (1/s) the reserve pays for.
     pub override_rate: f64,
 }
@@ -185,6 +185,25 @@ impl Timing {
             (1.0 - reserve) * limits.deceleration,
             limits.jerk,
         );
+        let override_rate =
+            reserve * limits.acceleration.min(limits.deceleration) / limits.velocity;
+        Self::with_profile(
+            limits,
+            Profile::DoubleS(fastest),
+            override_rate,
+            requested_s,
+        )
+    }
+
+    /// The timing of the fastest profile `fastest` (planned within `limits` with the
+    /// reserve that pays for `override_rate`), stretched to `requested_s` if that is
+    /// positive; a requested duration shorter than the profile is an error.
+    pub fn with_profile(
+        limits: PathLimits,
+        fastest: Profile,
+        override_rate: f64,
+        requested_s: f64,
+    ) -> Result<Self, MoveError> {
         let profile = if requested_s <= 0.0 {
             fastest
         } else if requested_s < fastest.duration() * (1.0 - DURATION_TOLERANCE) {
@@ -198,7 +217,7 @@ impl Timing {
         Ok(Self {
             limits,
             profile,
-            override_rate: reserve * limits.acceleration.min(limits.deceleration) / limits.velocity,
+            override_rate,
         })
     }
 }
@@ -313,6 +332,13 @@ mod tests {
         c
     }
 
+    fn double_s(m: &JointMove) -> DoubleS {
+        match m.timing().profile {
+            Profile::DoubleS(p) => p,
+            other => panic!("{other:?}"),
+        }
+    }
+
     fn planned(start: [f64; AXES], c: &MotionCommand) -> JointMove {
         match JointMove::plan(start, c, &limits(), 0.2) {
             Ok(Plan::Move(m)) => m,
@@ -331,7 +357,7 @@ mod tests {
         assert!((m.timing().limits.deceleration - 2.0).abs() < 1e-12);
         assert!((m.timing().limits.jerk - 20.0).abs() < 1e-12);
         assert!((m.timing().override_rate - 0.2 * 2.0 / 0.5).abs() < 1e-12);
-        assert!(m.timing().profile.peak_acceleration() <= 0.8 * 2.0 + 1e-12);
+        assert!(double_s(&m).peak_acceleration() <= 0.8 * 2.0 + 1e-12);
     }
 
     #[test]
@@ -347,16 +373,16 @@ mod tests {
         assert!((low.timing().limits.deceleration - 0.5).abs() < 1e-12);
         assert!((low.timing().limits.braking() - 1.0).abs() < 1e-12);
         assert_eq!(
-            low.timing().profile.peak_acceleration(),
-            equal.timing().profile.peak_acceleration()
+            double_s(&low).peak_acceleration(),
+            double_s(&equal).peak_acceleration()
         );
-        assert!(low.timing().profile.peak_deceleration() <= 0.8 * 0.5 + 1e-12);
+        assert!(double_s(&low).peak_deceleration() <= 0.8 * 0.5 + 1e-12);
         assert!(low.timing().profile.duration() > equal.timing().profile.duration());
         // The override reserve pays for the smaller of the two.
         assert!((low.timing().override_rate - 0.2 * 0.5 / 1.0).abs() < 1e-12);
         // With equal scales the profile is the symmetric one of the acceleration scale.
         let symmetric = DoubleS::new(1.0, 0.8 * 1.0, 0.8 * 1.0, 20.0);
-        assert_eq!(equal.timing().profile, symmetric);
+        assert_eq!(double_s(&equal), symmetric);
     }
 
     #[test]

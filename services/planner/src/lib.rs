@@ -1,16 +1,21 @@
-//! The planner service: joint-space point-to-point and Cartesian straight-line moves for the
-//! SRCI controller.
+//! The planner service: joint-space point-to-point moves, Cartesian lines and arcs, blends
+//! and waits for the SRCI controller.
 //!
 //! Pure cores: [`profile`] (the double-S path profile, with separate acceleration and
-//! deceleration), [`joint_move`] (synchronized PTP moves), [`linear_move`] (straight lines
-//! of the TCP, followed by the analytic inverse kinematics), [`brake`] (stops on the path),
-//! [`motion`] (one tick of commanded motion on either path), [`queue`] (the moves of
-//! one sequence), [`sequences`] (the primary and the secondary sequence), [`events`]
-//! (paced job events), [`executor`] (the per-tick state machine) and
-//! [`kinematics`] (forward kinematics, Jacobian, analytic inverse kinematics, configuration
-//! bits and turn numbers). [`service`] is the process loop around them.
+//! deceleration), [`joint_move`] (synchronized PTP moves), [`cartesian_path`] (straight
+//! lines and arcs of the TCP), [`linear_move`] (Cartesian paths followed by the analytic
+//! inverse kinematics), [`topp`] (their time-optimal timing on clarabel), [`targets`]
+//! (relative targets made absolute), [`blend`] (the overlap of two moves for every
+//! BlendingMode), [`brake`] (stops on the path), [`motion`] (one tick of commanded motion),
+//! [`safety_filter`] (the last guard of every point before the servo), [`queue`] (the moves
+//! of one sequence), [`sequences`] (the primary and the secondary sequence), [`events`]
+//! (paced job events), [`executor`] (the per-tick state machine) and [`kinematics`]
+//! (forward kinematics, Jacobian, analytic inverse kinematics, configuration bits and turn
+//! numbers). [`service`] is the process loop around them.
 
+pub mod blend;
 pub mod brake;
+pub mod cartesian_path;
 pub mod events;
 pub mod executor;
 pub mod joint_move;
@@ -22,7 +27,9 @@ pub mod queue;
 pub mod safety_filter;
 pub mod sequences;
 pub mod service;
+pub mod targets;
 #[cfg(test)]
 mod test_support;
+pub mod topp;
 
 pub use service::{PlannerError, run};

@@ -1,11 +1,11 @@
-//! The Cartesian straight-line move (MoveLinearAbsolute).
+//! The Cartesian moves (MoveLinearAbsolute, MoveCircularAbsolute): the TCP on a straight
+//! line or an arc.
 //!
 //! # Path
 //!
-//! The TCP moves from its start pose `(p0, R0)` to the target `(p1, R1)` on
-//! `p(s) = p0 + s·(p1 − p0)`, `R(s) = exp(s·ω)·R0` for `s` in [0, 1], `ω` the rotation vector of
-//! `R1·R0ᵀ` (slerp on the shortest rotation: OriMode LINEAR_INTERPOLATED); with OriMode FIX
-//! `R(s) = R0` and the target orientation is ignored. The flange follows as `T_tcp(s)·tool⁻¹`.
+//! The TCP follows the [`CartesianPath`] of the command from its start pose for `s` in
+//! [0, 1]: a straight line or an arc, the orientation as OriMode says. The flange follows as
+//! `T_tcp(s)·tool⁻¹`.
 //!
 //! # Joints
 //!
@@ -20,51 +20,62 @@
 //!
 //! # Timing
 //!
-//! One double-S profile on `s`, with the tightest of these limits:
+//! The survey keeps, per sample, `q' = dq/ds`, `q'' = d²q/ds²` (central differences of the
+//! inverse kinematics), `q'''` (differences of neighbouring samples' `q''`) and the TCP's
+//! `|p'|`, `|p''|` ([`PathSamples`]): any sampled Cartesian path, line or arc, is timed the
+//! same way. With `q̇ = q'·ṡ`, `q̈ = q''·ṡ² + q'·s̈` and `q⃛ = q'''·ṡ³ + 3·q''·ṡ·s̈ + q'·s⃛`:
 //!
-//! - the TCP limits of the robot (`cartesian` section) times the command's rates, divided by
-//!   the length of the line (the orientation has no Cartesian limit of its own: the joint
-//!   limits bound it);
-//! - the joint limits along the path. With `q' = dq/ds`, `q'' = d²q/ds²` (central
-//!   differences of the inverse kinematics) and `q'''` (differences of neighbouring samples'
-//!   `q''`), `q̇ = q'·ṡ`, `q̈ = q''·ṡ² + q'·s̈` and `q⃛ = q'''·ṡ³ + 3·q''·ṡ·s̈ + q'·s⃛`. The
-//!   survey takes the largest magnitude of each of them per joint over the samples, times
-//!   [`SAMPLING_MARGIN`] for what lies between the samples. For a path speed `V` and a split
-//!   `f` of the jerk budget the limits are
-//!   - `V ≤ rate_v·v_i/|q'_i|`, `V² ≤ CURVATURE_SHARE·a_i/|q''_i|`,
-//!     `V³ ≤ JERK_SHARE·j_i/|q'''_i|`;
-//!   - `s̈ ≤ rate_a·(a_i − |q''_i|·V²)/|q'_i|` (the deceleration with its own rate) and
-//!     `|s̈| ≤ f·(j_i − |q'''_i|·V³)/(3·|q''_i|·V)`;
-//!   - `|s⃛| ≤ rate_j·(j_i − |q'''_i|·V³ − 3·|q''_i|·V·|s̈|)/|q'_i|`;
+//! 1. **Time-optimal table** ([`topp`]): the planner's [`PathTimer`] (one clarabel solver,
+//!    built at start-up) finds the fastest `ṡ(s)` within the joint and TCP velocity and
+//!    acceleration limits at every sample (times the command's rates, the acceleration held
+//!    back by the override reserve), with the joints' jerk budget as a convex path-jerk bound
+//!    and the speed capped where constant stop bounds stop to exist (below).
+//! 2. **Constant bounds**: one double-S profile on `s` with the tightest of
+//!    - the TCP limits of the robot (`cartesian` section) times the command's rates, divided
+//!      by the length of the path (the orientation has no Cartesian limit of its own: the
+//!      joint limits bound it);
+//!    - the joint limits along the path, from the largest magnitude of each derivative per
+//!      joint over the samples, times [`SAMPLING_MARGIN`] for what lies between the samples.
+//!      For a path speed `V` and a split `f` of the jerk budget the limits are
+//!      - `V ≤ rate_v·v_i/|q'_i|`, `V² ≤ CURVATURE_SHARE·a_i/|q''_i|`,
+//!        `V³ ≤ JERK_SHARE·j_i/|q'''_i|`;
+//!      - `s̈ ≤ rate_a·(a_i − |q''_i|·V²)/|q'_i|` (the deceleration with its own rate) and
+//!        `|s̈| ≤ f·(j_i − |q'''_i|·V³)/(3·|q''_i|·V)`;
+//!      - `|s⃛| ≤ rate_j·(j_i − |q'''_i|·V³ − 3·|q''_i|·V·|s̈|)/|q'_i|`;
 //!
-//!   of the candidates on a grid of `V` ([`SPEED_STEPS`] up to the largest allowed) and `f`
-//!   ([`JERK_SPLITS`]) the one with the shortest profile is taken.
+//!      of the candidates on a grid of `V` ([`SPEED_STEPS`] up to the largest allowed) and
+//!      `f` ([`JERK_SPLITS`]) the one with the shortest profile is taken.
 //!
-//! So `|q̇_i| ≤ v_i`, `|q̈_i| ≤ a_i` and, for the profile and for a stop, `|q⃛_i| ≤ j_i`
-//! everywhere on the path. Velocity and acceleration also hold under override changes (see
-//! [`Timing::plan`]); the jerk then has the terms of the override ramp on top, as for joint
-//! moves.
+//! The table is taken when the solver finds one and it is faster; otherwise (solver failure,
+//! logged) the double-S. Both keep `|q̇_i| ≤ v_i`, `|q̈_i| ≤ a_i` and `|q⃛_i| ≤ j_i` along the
+//! path (the table within its grid margin, see [`topp`]).
 //!
-//! The bounds are constants for the whole path, from maxima that may lie at different places:
-//! where the path needs less, the move is slower than a time-optimal path parameterization
-//! (TOPP) would make it.
+//! **Stops and override.** A stop brakes with constant path limits ([`Timing::limits`]). For
+//! the double-S they are its own; for the table they are the constant bounds above at the
+//! speed cap `V_stop = min_i min(√(CURVATURE_SHARE·a_i/|q''_i|), ∛(JERK_SHARE·j_i/|q'''_i|))`,
+//! which the table never exceeds, so a stop from anywhere on the table keeps the limits. The
+//! table's override rate is the one its reserve pays for at every point:
+//! `|q'_i·ṡ·σ̇| ≤ rate_v·v_i·σ̇ ≤ r·a_i` (and the same for the TCP). The cap costs speed on
+//! paths whose curvature, not velocity, limits them.
 
 use core::f64::consts::TAU;
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::Isometry3;
 use shared_types::config::{CartesianLimits, JointLimitsRad};
 use shared_types::ipc::{AXES, JointPoint, MotionCommand};
 use shared_types::pose;
 use shared_types::srci::message::code;
 
+use crate::cartesian_path::{self, CartesianPath, PathError};
 use crate::joint_move::{MoveError, PathLimits, Timing, check_limits, validate_timing};
 use crate::kinematics::selection::{ConfigModes, ModeError, TurnMode};
 use crate::kinematics::turns::TurnNumbers;
 use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
-use crate::profile::DoubleS;
+use crate::profile::{DoubleS, Profile};
+use crate::topp::{self, PathSamples, PathTimer, ToppLimits};
 
 /// Intervals the path is surveyed in before the move.
-pub const SAMPLES: usize = 256;
+pub const SAMPLES: usize = topp::INTERVALS;
 /// Factor on the largest sampled `|q'|` and `|q''|` for the parts of the path between the
 /// samples.
 pub const SAMPLING_MARGIN: f64 = 1.1;
@@ -81,8 +92,6 @@ pub const CURVATURE_SHARE: f64 = 0.5;
 const DIFF_STEP: f64 = 1e-3;
 /// Shortest line (m) counted as a translation.
 const ZERO_LENGTH_M: f64 = 1e-9;
-/// Smallest rotation (rad) counted as a reorientation.
-const ZERO_ANGLE_RAD: f64 = 1e-9;
 /// How closely (rad) the start branch must reproduce the start joints.
 const START_TOLERANCE_RAD: f64 = 1e-6;
 /// Largest joint change (rad) between two survey samples. A regular path changes far less
@@ -90,19 +99,18 @@ const START_TOLERANCE_RAD: f64 = 1e-6;
 /// passes a singular set between two samples flips joints by up to π.
 const MAX_SAMPLE_STEP_RAD: f64 = 0.25;
 
-/// Why a MoveLinear cannot be executed; [`code`](Self::code) is the SRCI message code.
+/// Why a MoveLinear or MoveCircular cannot be executed; [`code`](Self::code) is the SRCI
+/// message code.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum LinearError {
     #[error(transparent)]
     Move(#[from] MoveError),
     #[error(transparent)]
     Mode(#[from] ModeError),
+    #[error(transparent)]
+    Path(#[from] PathError),
     #[error("the target pose or the tool is not finite")]
     InvalidPose,
-    #[error("OriMode {0} is not supported")]
-    OriModeNotSupported(u8),
-    #[error("OriMode {0} is not defined")]
-    InvalidOriMode(u8),
     #[error("the robot's kinematics has no analytic inverse")]
     NoInverseKinematics,
     #[error("the line leaves the reach of the start configuration at s = {s}")]
@@ -121,35 +129,13 @@ impl LinearError {
         match self {
             Self::Move(e) => e.code(),
             Self::Mode(e) => e.code(),
+            Self::Path(e) => e.code(),
             Self::InvalidPose => code::INVALID_POSITION,
-            Self::OriModeNotSupported(_) => code::ORI_MODE_NOT_SUPPORTED,
-            Self::InvalidOriMode(_) => code::INVALID_ORI_MODE,
             Self::NoInverseKinematics
             | Self::Unreachable { .. }
             | Self::Singular { .. }
             | Self::ConfigurationChange
             | Self::TurnMismatch => code::TARGET_UNREACHABLE,
-        }
-    }
-}
-
-/// How the orientation moves along the line (SRCI OriMode).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OriMode {
-    /// 0 (standard) and 1 LINEAR_INTERPOLATED: slerp on the shortest rotation to the target.
-    Interpolated,
-    /// 3 FIX: the start orientation all the way.
-    Fix,
-}
-
-impl OriMode {
-    /// The mode of a wire value; 2 (JOINT_INTERPOLATED) and 4 (PATH) are not supported.
-    pub fn from_wire(value: u8) -> Result<Self, LinearError> {
-        match value {
-            0 | 1 => Ok(Self::Interpolated),
-            3 => Ok(Self::Fix),
-            2 | 4 => Err(LinearError::OriModeNotSupported(value)),
-            _ => Err(LinearError::InvalidOriMode(value)),
         }
     }
 }
@@ -180,18 +166,20 @@ pub struct Arm<'a> {
     pub geometry: &'a ArmGeometry,
     pub joints: &'a JointLimitsRad,
     pub tcp: &'a TcpLimits,
+    /// The planner's time-optimal path timer.
+    pub timer: &'a PathTimer,
 }
 
-/// The parameters of a MoveLinear that do not depend on where the arm is.
+/// The parameters of a Cartesian move that do not depend on where the arm is.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Request {
-    ori_mode: OriMode,
     config_modes: ConfigModes,
     turn_mode: TurnMode,
 }
 
-/// Checks what a MoveLinear command asks for independently of where the arm is: the rates
-/// and the duration, a finite pose and tool, the OriMode, ConfigMode and TurnMode.
+/// Checks what a MoveLinear or MoveCircular command asks for independently of where the arm
+/// is: the rates and the duration, a finite pose and tool, the path's parameters
+/// ([`cartesian_path::validate`]), ConfigMode and TurnMode.
 pub fn validate(command: &MotionCommand) -> Result<(), LinearError> {
     request(command).map(|_| ())
 }
@@ -206,14 +194,14 @@ fn request(command: &MotionCommand) -> Result<Request, LinearError> {
     {
         return Err(LinearError::InvalidPose);
     }
+    cartesian_path::validate(command)?;
     Ok(Request {
-        ori_mode: OriMode::from_wire(command.ori_mode)?,
         config_modes: ConfigModes::from_wire(command.config_modes)?,
         turn_mode: TurnMode::parse(command.turn_mode)?,
     })
 }
 
-/// The outcome of planning a MoveLinear from a start position.
+/// The outcome of planning a Cartesian move from a start position.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[allow(
     clippy::large_enum_variant,
@@ -244,17 +232,13 @@ impl LinearPlan {
     }
 }
 
-/// The geometric path: the TCP on the line and the joints of the start branch.
+/// The geometric path: the TCP on its Cartesian path and the joints of the start branch.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Line {
     geometry: ArmGeometry,
     config: ArmConfig,
     tool_inverse: Isometry3<f64>,
-    start_position: Vector3<f64>,
-    travel: Vector3<f64>,
-    start_rotation: UnitQuaternion<f64>,
-    /// Rotation vector (base frame) of the whole reorientation.
-    rotation: Vector3<f64>,
+    path: CartesianPath,
     /// The joints at `s = 0`.
     start: [f64; AXES],
 }
@@ -279,11 +263,7 @@ type JointDerivatives = ([f64; AXES], [f64; AXES], [f64; AXES]);
 impl Line {
     /// The TCP pose at path position `s`.
     fn tcp(&self, s: f64) -> Isometry3<f64> {
-        let rotation = UnitQuaternion::from_scaled_axis(self.rotation * s) * self.start_rotation;
-        Isometry3::from_parts(
-            Translation3::from(self.start_position + self.travel * s),
-            rotation,
-        )
+        self.path.tcp(s)
     }
 
     /// The joints of the start branch at `s`, each on the turn nearest `previous`.
@@ -313,10 +293,28 @@ impl Line {
         ))
     }
 
+    /// `|dp/ds|` and `|d²p/ds²|` of the TCP position at `s`, by central differences kept
+    /// inside [0, 1].
+    fn tcp_derivatives(&self, s: f64) -> (f64, f64) {
+        let c = s.clamp(DIFF_STEP, 1.0 - DIFF_STEP);
+        let p = |s: f64| self.tcp(s).translation.vector;
+        let (ahead, center, behind) = (p(c + DIFF_STEP), p(c), p(c - DIFF_STEP));
+        let h = DIFF_STEP;
+        (
+            ((ahead - behind) / (2.0 * h)).norm(),
+            ((ahead - 2.0 * center + behind) / (h * h)).norm(),
+        )
+    }
+
     /// Follows the line at the survey samples: every point reachable in the start branch,
     /// away from singularities and within the joint limits (narrowed between the samples by
     /// what the curvature may add).
-    fn survey(&self, limits: &JointLimitsRad) -> Result<Survey, LinearError> {
+    /// The path's derivatives at every sample go to `samples`.
+    fn survey(
+        &self,
+        limits: &JointLimitsRad,
+        samples: &mut PathSamples,
+    ) -> Result<Survey, LinearError> {
         let mut survey = Survey {
             slope: [0.0; AXES],
             curvature: [0.0; AXES],
@@ -362,12 +360,16 @@ impl Line {
             }
             previous_curvature = Some(curvature);
             survey.end = q;
+            samples.slope[k] = slope;
+            samples.curvature[k] = curvature;
+            (samples.tcp_speed[k], samples.tcp_curvature[k]) = self.tcp_derivatives(s);
         }
+        third_derivatives(samples);
         Ok(survey)
     }
 }
 
-/// A planned straight-line move of the TCP.
+/// A planned Cartesian move of the TCP: a straight line or an arc.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinearMove {
     line: Line,
@@ -398,34 +400,26 @@ impl LinearMove {
         {
             return Err(LinearError::ConfigurationChange);
         }
-        let target = pose::isometry(command.pose);
-        let target_rotation = match request.ori_mode {
-            OriMode::Interpolated => target.rotation,
-            OriMode::Fix => tcp.rotation,
-        };
-        let travel = target.translation.vector - tcp.translation.vector;
-        let rotation = (target_rotation * tcp.rotation.inverse()).scaled_axis();
-        if travel.norm() <= ZERO_LENGTH_M && rotation.norm() <= ZERO_ANGLE_RAD {
+        let path = CartesianPath::new(command, &tcp)?;
+        if path.is_stationary() {
             return Ok(LinearPlan::Stationary(start));
         }
         let line = Line {
             geometry: *arm.geometry,
             config,
             tool_inverse: tool.inverse(),
-            start_position: tcp.translation.vector,
-            travel,
-            start_rotation: tcp.rotation,
-            rotation,
+            path,
             start,
         };
-        let survey = line.survey(arm.joints)?;
+        let mut samples = PathSamples::zeros();
+        let survey = line.survey(arm.joints, &mut samples)?;
         if request.turn_mode == TurnMode::UseTurnNumber {
             let reached = TurnNumbers::of_joints(&survey.end).map(|t| t.joints);
             if reached != Ok(TurnNumbers::from_wire(command.turn_numbers).joints) {
                 return Err(LinearError::TurnMismatch);
             }
         }
-        let limits = path_limits(command, &survey, travel.norm(), arm, reserve);
+        let limits = path_limits(command, &survey, path.length(), arm, reserve);
         if !limits.velocity.is_finite() {
             // A reorientation too small to move any joint measurably.
             return Ok(LinearPlan::Stationary(start));
@@ -433,7 +427,15 @@ impl LinearMove {
         Ok(LinearPlan::Move(Self {
             line,
             target: survey.end,
-            timing: Timing::plan(limits, reserve, command.duration_s)?,
+            timing: timing(
+                command,
+                &survey,
+                &samples,
+                limits,
+                path.length(),
+                arm,
+                reserve,
+            )?,
         }))
     }
 
@@ -450,6 +452,11 @@ impl LinearMove {
     /// The TCP pose at path position `s` (base frame).
     pub fn tcp(&self, s: f64) -> Isometry3<f64> {
         self.line.tcp(s)
+    }
+
+    /// The length (m) of the TCP's path; `(1 − s)·length` is left at path position `s`.
+    pub fn length(&self) -> f64 {
+        self.line.path.length()
     }
 
     /// The joint point at path position `s` with path velocity `sd` and acceleration `sdd`,
@@ -481,20 +488,7 @@ fn path_limits(
     arm: &Arm<'_>,
     reserve: f64,
 ) -> PathLimits {
-    let per_length = |limit: f64, rate: f64| {
-        if length > ZERO_LENGTH_M {
-            rate * limit / length
-        } else {
-            f64::INFINITY
-        }
-    };
-    let tcp = arm.tcp;
-    let cartesian = PathLimits {
-        velocity: per_length(tcp.velocity, command.velocity_scale),
-        acceleration: per_length(tcp.acceleration, command.acceleration_scale),
-        deceleration: per_length(tcp.acceleration, command.deceleration_scale),
-        jerk: per_length(tcp.jerk, command.jerk_scale),
-    };
+    let cartesian = cartesian_limits(command, length, arm.tcp);
     let bounds = JointBounds::new(survey, arm.joints);
     let fastest = bounds.fastest(command, cartesian.velocity);
     let mut best: Option<(f64, PathLimits)> = None;
@@ -517,6 +511,127 @@ fn path_limits(
     best.map_or(cartesian, |(_, limits)| limits)
 }
 
+/// The TCP limits times the command's rates over the path `length` (m), as path limits.
+fn cartesian_limits(command: &MotionCommand, length: f64, tcp: &TcpLimits) -> PathLimits {
+    let per_length = |limit: f64, rate: f64| {
+        if length > ZERO_LENGTH_M {
+            rate * limit / length
+        } else {
+            f64::INFINITY
+        }
+    };
+    PathLimits {
+        velocity: per_length(tcp.velocity, command.velocity_scale),
+        acceleration: per_length(tcp.acceleration, command.acceleration_scale),
+        deceleration: per_length(tcp.acceleration, command.deceleration_scale),
+        jerk: per_length(tcp.jerk, command.jerk_scale),
+    }
+}
+
+/// The timing of a surveyed path: the time-optimal table of [`topp`] where the solver finds
+/// one faster than the double-S on the constant bounds `limits`, else that double-S (a
+/// failure of the solver is logged). Stops on the table's path use constant bounds valid up
+/// to its speed cap, and its override rate is one the reserve pays for at every point.
+fn timing(
+    command: &MotionCommand,
+    survey: &Survey,
+    samples: &PathSamples,
+    limits: PathLimits,
+    length: f64,
+    arm: &Arm<'_>,
+    reserve: f64,
+) -> Result<Timing, LinearError> {
+    let constant = Timing::plan(limits, reserve, command.duration_s);
+    let Some((table_limits, stops, override_rate)) =
+        table_limits(command, survey, length, arm, reserve)
+    else {
+        return Ok(constant?);
+    };
+    let table = match arm.timer.time(samples, &table_limits) {
+        Ok(table) => table,
+        Err(e) => {
+            tracing::warn!("time-optimal timing failed ({e}); the move keeps constant bounds");
+            return Ok(constant?);
+        }
+    };
+    let fastest_constant = DoubleS::new(
+        limits.velocity,
+        (1.0 - reserve) * limits.acceleration,
+        (1.0 - reserve) * limits.deceleration,
+        limits.jerk,
+    );
+    if table.duration() >= fastest_constant.duration() {
+        return Ok(constant?);
+    }
+    Ok(Timing::with_profile(
+        stops,
+        Profile::Table(table),
+        override_rate,
+        command.duration_s,
+    )?)
+}
+
+/// The limits of the time-optimal timing, the constant bounds for stops on its path (valid
+/// up to its speed cap) and the override rate its reserve pays for; `None` if the path has
+/// no constant stop bounds.
+fn table_limits(
+    command: &MotionCommand,
+    survey: &Survey,
+    length: f64,
+    arm: &Arm<'_>,
+    reserve: f64,
+) -> Option<(ToppLimits, PathLimits, f64)> {
+    let cartesian = cartesian_limits(command, length, arm.tcp);
+    let bounds = JointBounds::new(survey, arm.joints);
+    let cap = bounds.stop_speed().min(cartesian.velocity);
+    let stops = JERK_SPLITS
+        .iter()
+        .map(|&split| bounds.at(command, &cartesian, cap, split))
+        .filter(|l| l.acceleration > 0.0 && l.deceleration > 0.0 && l.jerk > 0.0)
+        .max_by(|a, b| a.braking().total_cmp(&b.braking()))?;
+    let (rate_v, rate_a, rate_d) = (
+        command.velocity_scale,
+        command.acceleration_scale,
+        command.deceleration_scale,
+    );
+    let rate = rate_a.max(rate_d);
+    let (j, tcp) = (arm.joints, arm.tcp);
+    let kept = 1.0 - reserve;
+    // |q'·ṡ·σ̇| ≤ rate_v·v·σ̇ must fit into the reserve r·rate·a of every joint and the TCP.
+    let override_rate = (0..AXES).fold(
+        reserve * rate * tcp.acceleration / (rate_v * tcp.velocity),
+        |r, i| r.min(reserve * rate * j.acceleration[i] / (rate_v * j.velocity[i])),
+    );
+    let limits = ToppLimits {
+        velocity: j.velocity.map(|v| rate_v * v),
+        acceleration: j.acceleration.map(|a| kept * rate * a),
+        jerk: j.jerk.map(|x| command.jerk_scale * x),
+        tcp_velocity: rate_v * tcp.velocity,
+        tcp_acceleration: kept * rate * tcp.acceleration,
+        tcp_jerk: command.jerk_scale * tcp.jerk,
+        speed_up: rate_a / rate,
+        braking: rate_d / rate,
+        speed_cap: cap,
+    };
+    Some((limits, stops, override_rate))
+}
+
+/// `d³q/ds³` of the samples from the differences of neighbouring `d²q/ds²`, the larger of
+/// both sides.
+fn third_derivatives(samples: &mut PathSamples) {
+    let step = 1.0 / SAMPLES as f64;
+    for k in 0..=SAMPLES {
+        let (before, after) = (k.saturating_sub(1), (k + 1).min(SAMPLES));
+        let c = &samples.curvature;
+        samples.third[k] = core::array::from_fn(|i| {
+            (c[k][i] - c[before][i])
+                .abs()
+                .max((c[after][i] - c[k][i]).abs())
+                / step
+        });
+    }
+}
+
 /// The joint limits against the surveyed path derivatives (with the sampling margin).
 struct JointBounds<'a> {
     joints: &'a JointLimitsRad,
@@ -537,13 +652,21 @@ impl<'a> JointBounds<'a> {
         }
     }
 
-    /// The largest path speed: `|q'|·ṡ ≤ rate_v·v`, `|q''|·ṡ² ≤ CURVATURE_SHARE·a`,
-    /// `|q'''|·ṡ³ ≤ JERK_SHARE·j`, and the Cartesian `cartesian` (1/s).
+    /// The largest path speed: `|q'|·ṡ ≤ rate_v·v`, the [`stop_speed`](Self::stop_speed)
+    /// and the Cartesian `cartesian` (1/s).
     fn fastest(&self, command: &MotionCommand, cartesian: f64) -> f64 {
         let j = self.joints;
-        (0..AXES).fold(cartesian, |v, i| {
+        (0..AXES).fold(self.stop_speed().min(cartesian), |v, i| {
             v.min(command.velocity_scale * j.velocity[i] / self.slope[i])
-                .min((CURVATURE_SHARE * j.acceleration[i] / self.curvature[i]).sqrt())
+        })
+    }
+
+    /// The largest path speed up to which constant stop bounds exist:
+    /// `|q''|·ṡ² ≤ CURVATURE_SHARE·a` and `|q'''|·ṡ³ ≤ JERK_SHARE·j` (1/s).
+    fn stop_speed(&self) -> f64 {
+        let j = self.joints;
+        (0..AXES).fold(f64::INFINITY, |v, i| {
+            v.min((CURVATURE_SHARE * j.acceleration[i] / self.curvature[i]).sqrt())
                 .min((JERK_SHARE * j.jerk[i] / self.third[i]).cbrt())
         })
     }
@@ -594,7 +717,7 @@ mod tests {
     use super::*;
     use crate::kinematics::test_robots::{self, Robot};
     use crate::test_support::{assert_jerk_within_limits, assert_within_limits};
-    use nalgebra::Vector3;
+    use nalgebra::{Translation3, UnitQuaternion, Vector3};
     use proptest::prelude::*;
     use shared_types::ipc::MotionCommandKind;
 
@@ -604,6 +727,7 @@ mod tests {
         robot: Robot,
         joints: JointLimitsRad,
         tcp: TcpLimits,
+        timer: PathTimer,
     }
 
     impl Setup {
@@ -613,6 +737,7 @@ mod tests {
                 joints: robot.config.limits_rad(),
                 tcp: TcpLimits::from_config(&robot.config.cartesian),
                 robot,
+                timer: PathTimer::new(topp::JerkBound::Joints),
             }
         }
 
@@ -622,6 +747,7 @@ mod tests {
                 geometry: &self.robot.geometry,
                 joints: &self.joints,
                 tcp: &self.tcp,
+                timer: &self.timer,
             }
         }
 
@@ -752,8 +878,10 @@ mod tests {
             [0.0, 0.0, 200f64.to_radians()],
         );
         let m = setup.planned(start, &c);
-        assert!((m.line.rotation.norm() - 160f64.to_radians()).abs() < 1e-9);
-        assert!(m.line.rotation.z < 0.0);
+        // Halfway it has turned 80° the other way about z.
+        let turned = (m.tcp(0.5).rotation * m.tcp(0.0).rotation.inverse()).scaled_axis();
+        assert!((turned.norm() - 80f64.to_radians()).abs() < 1e-9);
+        assert!(turned.z < 0.0);
     }
 
     #[test]
@@ -844,6 +972,36 @@ mod tests {
         let mut c = linear_to([0.0; 6]);
         c.pose = moved(&setup, &start, &c, [0.0; 3], [0.0; 3]);
         assert_eq!(setup.plan(start, &c), Ok(LinearPlan::Stationary(start)));
+    }
+
+    #[test]
+    fn a_line_is_timed_by_the_table_and_faster_than_constant_bounds() {
+        let setup = Setup::new();
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        c.pose = moved(&setup, &start, &c, [0.25, -0.1, 0.15], [0.3, -0.4, 0.5]);
+        let m = setup.planned(start, &c);
+        let Profile::Table(table) = m.timing().profile else {
+            panic!("{:?}", m.timing().profile);
+        };
+        let l = m.timing().limits;
+        let constant = DoubleS::new(
+            l.velocity,
+            0.8 * l.acceleration,
+            0.8 * l.deceleration,
+            l.jerk,
+        );
+        assert!(table.duration() < constant.duration());
+        setup.check_limits(&setup.run(&m, start));
+        // Without a solver the same line keeps the constant bounds, and its limits.
+        let fallback = Setup {
+            timer: PathTimer::unavailable(),
+            ..Setup::new()
+        };
+        let slow = fallback.planned(start, &c);
+        assert!(matches!(slow.timing().profile, Profile::DoubleS(_)));
+        assert!(slow.timing().profile.duration() > table.duration());
+        fallback.check_limits(&fallback.run(&slow, start));
     }
 
     #[test]
@@ -963,6 +1121,99 @@ mod tests {
         assert!(setup.plan(start, &c).is_ok());
         c.turn_numbers = [0x01, 0, 0, 0];
         assert_eq!(setup.plan(start, &c), Err(LinearError::TurnMismatch));
+    }
+
+    /// A MoveCircular of `mode` from the TCP of `start`: a half circle of radius `r` about
+    /// the point `r` along base −x from the start, in the base XY plane (CCW seen from +z),
+    /// given by an aux point and an end as `mode` needs them.
+    fn half_circle(
+        setup: &Setup,
+        start: &[f64; AXES],
+        mode: u8,
+        r: f64,
+    ) -> (MotionCommand, Vector3<f64>) {
+        let mut c = MotionCommand::new(MotionCommandKind::MoveCircular);
+        c.tool = [0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
+        let tcp = setup.tcp_of(start, &c);
+        let centre = tcp.translation.vector - Vector3::x() * r;
+        let aux = if mode == 0 {
+            centre + Vector3::y() * r
+        } else {
+            centre
+        };
+        c.circle_mode = mode;
+        // The start orientation all the way (CENTER_WITH_ANGLE would turn it with the arc).
+        c.ori_mode = 3;
+        c.circle_plane = 2;
+        c.path_choice = 1;
+        c.circle_angle_rad = core::f64::consts::PI;
+        c.circle_radius_m = r;
+        c.aux_pose = [aux.x, aux.y, aux.z, 0.0, 0.0, 0.0];
+        let end = tcp.translation.vector - Vector3::x() * (2.0 * r);
+        c.pose = pose_of(&Isometry3::from_parts(
+            Translation3::from(end),
+            tcp.rotation,
+        ));
+        (c, centre)
+    }
+
+    #[test]
+    fn a_circular_move_keeps_the_tcp_on_the_arc_and_the_joints_within_their_limits() {
+        let setup = Setup::new();
+        let start = regular();
+        let r = 0.08;
+        for mode in 0..=3 {
+            let (c, centre) = half_circle(&setup, &start, mode, r);
+            let m = setup.planned(start, &c);
+            assert!(
+                (m.length() - core::f64::consts::PI * r).abs() < 1e-9,
+                "CircMode {mode}"
+            );
+            let points = setup.run(&m, start);
+            assert!(points.len() > 100);
+            let z = centre.z;
+            for p in &points {
+                let tcp = setup.tcp_of(&p.q, &c).translation.vector;
+                let off = tcp - centre;
+                assert!(
+                    (off.norm() - r).abs() < 1e-5,
+                    "{} m off the arc",
+                    off.norm() - r
+                );
+                assert!((tcp.z - z).abs() < 1e-5, "off the plane");
+                // CCW from +x through +y.
+                assert!(off.y > -1e-5, "the wrong way round");
+            }
+            let end = setup.tcp_of(&points.last().unwrap().q, &c);
+            assert!(
+                (end.translation.vector - pose::isometry(c.pose).translation.vector).norm() < 1e-9
+            );
+            setup.check_limits(&points);
+        }
+    }
+
+    #[test]
+    fn a_degenerate_arc_is_refused_before_the_move() {
+        let setup = Setup::new();
+        let start = regular();
+        let (mut c, centre) = half_circle(&setup, &start, 0, 0.08);
+        // The aux point on the line from the start to the end.
+        c.aux_pose[..3].copy_from_slice(centre.as_slice());
+        assert_eq!(
+            setup.plan(start, &c),
+            Err(LinearError::Path(PathError::Collinear))
+        );
+        assert_eq!(
+            setup.plan(start, &c).unwrap_err().code(),
+            code::INVALID_POSITION
+        );
+        // The long way round a circle of 1.5 m: far out of reach, refused by the survey.
+        let (mut c, _) = half_circle(&setup, &start, 3, 0.08);
+        c.circle_radius_m = -1.5;
+        assert_eq!(
+            setup.plan(start, &c).unwrap_err().code(),
+            code::TARGET_UNREACHABLE
+        );
     }
 
     proptest! {

@@ -2,15 +2,43 @@
 //!
 //! A [`Motion`] is small and `Copy`, so the executor can step a copy ahead to fill the
 //! setpoint window with exactly the points the real motion will take if nothing changes.
+//!
+//! # Blends
+//!
+//! A running move carries its [`Handover`]: undecided until the executor decides, once, at
+//! the beginning of the move's blend window, whether it blends into the next move of its
+//! sequence (see [`blend`](crate::blend)). A planned blend starts B when A's time reaches the
+//! overlap start, if B still is the next move of the sequence; then A is DONE and B ACTIVE
+//! in the same tick (as a blended PLCopen block is Done when the next one takes over), and
+//! both advance on the one time scale σ until A ends. During the overlap the status reports
+//! B as the running move.
+//!
+//! A stop or an interrupt during the overlap brakes on the blended path: σ goes to 0 at the
+//! blend's stop rate, which keeps every joint within its velocity and acceleration limits
+//! (like an override ramp, the acceleration changes in steps). If A ends before the arm
+//! stands, B alone brakes on its path. An interrupted B goes back to its sequence and, on
+//! continue, is planned anew from where the arm stopped (A is done already).
+//!
+//! # WaitTime
+//!
+//! A [`MotionCommandKind::Wait`] in a sequence stands still for its duration (real time,
+//! the override does not stretch it) and is then DONE; it never blends. An interrupt pauses
+//! its clock: the executor puts it back into its sequence with the time left, and continue
+//! makes it ACTIVE again for that time.
 
 use shared_types::config::JointLimitsRad;
-use shared_types::ipc::{AXES, JointPoint, MotionCommandKind};
+use shared_types::ipc::{AXES, JointPoint, MotionCommand, MotionCommandKind};
 use shared_types::srci::message::state;
 
+use crate::blend::Overlap;
 use crate::brake::PathBrake;
+use crate::cartesian_path;
 use crate::joint_move::{JointMove, Plan, Timing};
 use crate::linear_move::{LinearMove, LinearPlan, TcpLimits};
 use crate::sequences::{Cursor, Holds, Sequence, Sequences};
+
+/// Wait time (s) left that counts as none, against rounding of the tick sum.
+const WAIT_TOLERANCE_S: f64 = 1e-9;
 
 /// The path of a running move: a straight line in joint space or of the TCP.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -21,7 +49,7 @@ use crate::sequences::{Cursor, Holds, Sequence, Sequences};
 pub enum Path {
     /// MoveAxes (and MoveDirect, a joint move to a Cartesian target).
     Joint(JointMove),
-    /// MoveLinear.
+    /// MoveLinear and MoveCircular: the TCP on a line or an arc.
     Linear(LinearMove),
 }
 
@@ -53,21 +81,85 @@ impl Path {
 
 /// What the arm is doing.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "the motion is copied ahead every tick, where boxing would allocate"
+)]
 pub enum Phase {
     /// Standing still at the commanded position.
     Idle,
-    /// Executing `active`; `tau` is the time along its profile.
-    Running {
-        active: ActiveMove,
-        plan: Path,
-        tau: f64,
-    },
+    /// Executing one move.
+    Running(Running),
+    /// Two moves overlapping.
+    Blending(Blend),
     /// Stopping on the path of an aborted or interrupted move of `sequence`.
     Braking {
         sequence: Sequence,
         plan: Path,
         brake: PathBrake,
     },
+    /// A WaitTime of the sequence: standing still for `left_s` more of `duration_s` s.
+    Waiting {
+        active: ActiveMove,
+        left_s: f64,
+        duration_s: f64,
+    },
+}
+
+/// A move being executed alone.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Running {
+    pub active: ActiveMove,
+    pub plan: Path,
+    /// The time along its profile.
+    pub tau: f64,
+    /// What its end leads into.
+    pub handover: Handover,
+}
+
+/// What the end of a running move leads into.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "the motion is copied ahead every tick, where boxing would allocate"
+)]
+pub enum Handover {
+    /// Not decided yet: the executor decides when the move's blend window begins.
+    Undecided,
+    /// An exact stop at the end of the move.
+    ExactStop,
+    /// A blend into the next move of its sequence.
+    Blend(PlannedBlend),
+}
+
+/// A blend decided for the end of the running move.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlannedBlend {
+    /// The move blended into.
+    pub next: ActiveMove,
+    /// Its path, from where the running move ends.
+    pub plan: Path,
+    /// When it starts, and the rates of the time scale during the overlap.
+    pub overlap: Overlap,
+}
+
+/// Two moves overlapping: B (active) started while A (outgoing, done) still runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Blend {
+    /// The move blended into, now the active one.
+    pub active: ActiveMove,
+    pub plan: Path,
+    /// The time along its profile.
+    pub tau: f64,
+    /// Its joints at the last tick, without the outgoing move's share.
+    joints: [f64; AXES],
+    /// The move blended out of, its time and its own joints at the last tick.
+    outgoing: Path,
+    outgoing_tau: f64,
+    outgoing_joints: [f64; AXES],
+    overlap: Overlap,
+    /// A stop brings the time scale to 0 on the blended path.
+    braking: bool,
 }
 
 /// The running move's job and what its end does.
@@ -78,6 +170,17 @@ pub struct ActiveMove {
     pub sequence: Sequence,
     /// Its end holds the primary sequence (StepMode).
     pub hold_after: bool,
+}
+
+impl ActiveMove {
+    /// The move of `command` taken from `sequence` (StepMode holds primary moves only).
+    pub fn of(command: &MotionCommand, sequence: Sequence) -> Self {
+        Self {
+            job: command.job,
+            sequence,
+            hold_after: command.hold_after && sequence == Sequence::Primary,
+        }
+    }
 }
 
 /// Limits the moves are planned with.
@@ -111,6 +214,15 @@ pub struct Motion {
     pub holds: Holds,
 }
 
+/// What one tick of motion reads besides the motion itself.
+struct Tick<'a> {
+    dynamics: &'a Dynamics,
+    sequences: &'a Sequences,
+    cursor: &'a mut Cursor,
+    dt: f64,
+    override_target: f64,
+}
+
 impl Motion {
     /// Standing still at `q`.
     pub fn at_rest(q: [f64; AXES], sigma: f64) -> Self {
@@ -128,10 +240,11 @@ impl Motion {
         }
     }
 
-    /// The running move, if any.
+    /// The running (or waiting) move, if any; during a blend the move blended into.
     pub fn running(&self) -> Option<ActiveMove> {
         match self.phase {
-            Phase::Running { active, .. } => Some(active),
+            Phase::Running(Running { active, .. }) | Phase::Waiting { active, .. } => Some(active),
+            Phase::Blending(blend) if !blend.braking => Some(blend.active),
             _ => None,
         }
     }
@@ -139,42 +252,68 @@ impl Motion {
     /// The sequence of the move that runs or brakes, if any.
     pub fn moving_sequence(&self) -> Option<Sequence> {
         match self.phase {
-            Phase::Running { active, .. } => Some(active.sequence),
+            Phase::Running(Running { active, .. }) => Some(active.sequence),
+            Phase::Blending(blend) => Some(blend.active.sequence),
             Phase::Braking { sequence, .. } => Some(sequence),
-            Phase::Idle => None,
+            Phase::Idle | Phase::Waiting { .. } => None,
         }
     }
 
-    /// Switches a running move to braking on its path; returns the job that is thereby
-    /// aborted or interrupted. Braking or standing motion is left as it is.
+    /// Whether two moves overlap now (SRCI IsBlending).
+    pub fn is_blending(&self) -> bool {
+        matches!(self.phase, Phase::Blending(_))
+    }
+
+    /// Switches a running move to braking on its path (a blend on the blended path, a wait
+    /// ends at once); returns the job that is thereby aborted or interrupted. Braking or
+    /// standing motion is left as it is.
     pub fn brake(&mut self) -> Option<u32> {
-        let Phase::Running { active, plan, tau } = self.phase else {
-            return None;
-        };
+        match self.phase {
+            Phase::Running(Running {
+                active, plan, tau, ..
+            }) => {
+                let brake = self.path_brake(&plan, tau);
+                self.phase = Phase::Braking {
+                    sequence: active.sequence,
+                    plan,
+                    brake,
+                };
+                Some(active.job)
+            }
+            Phase::Blending(mut blend) if !blend.braking => {
+                blend.braking = true;
+                self.phase = Phase::Blending(blend);
+                Some(blend.active.job)
+            }
+            Phase::Waiting { active, .. } => {
+                self.phase = Phase::Idle;
+                Some(active.job)
+            }
+            _ => None,
+        }
+    }
+
+    /// A brake of `plan` from its state at `tau` under the current time scale.
+    fn path_brake(&self, plan: &Path, tau: f64) -> PathBrake {
         let timing = plan.timing();
         let (s, sd, sdd) = timing.profile.eval(tau);
         let limits = timing.limits;
         // Same (s, ṡ, s̈) as the point last commanded, so the stop is continuous.
-        let brake = PathBrake::new(
+        PathBrake::new(
             s,
             sd * self.sigma,
             sdd * self.sigma * self.sigma + sd * self.sigma_rate,
             limits.braking(),
             limits.jerk,
-        );
-        self.phase = Phase::Braking {
-            sequence: active.sequence,
-            plan,
-            brake,
-        };
-        Some(active.job)
+        )
     }
 
     /// Advances one tick of `dt` seconds. A standing arm starts the next move of `sequences`
     /// past `cursor` (see [`Sequences::next`]) and moves the cursor past it; a linear move
     /// only if it was planned from exactly where the arm stands, else the arm waits for the
-    /// executor to plan it from there. A primary move with `hold_after` holds the primary
-    /// sequence when it is done.
+    /// executor to plan it from there. A running move with a planned blend starts the next
+    /// move the same way when the overlap begins. A primary move with `hold_after` holds the
+    /// primary sequence when it is done.
     /// State changes of jobs go to `report(job, state, code)`. A finished stop leaves the
     /// arm standing for this tick, so a stop's end is observable before the next move starts.
     pub fn advance(
@@ -186,55 +325,26 @@ impl Motion {
         override_target: f64,
         report: &mut impl FnMut(u32, u8, u16),
     ) {
+        let mut tick = Tick {
+            dynamics,
+            sequences,
+            cursor,
+            dt,
+            override_target,
+        };
         match self.phase {
-            Phase::Idle => {
-                self.stand(override_target);
-                let Some((sequence, queued)) = sequences.next(cursor, self.holds) else {
-                    return;
-                };
-                let command = &queued.command;
-                let hold_after = command.hold_after && sequence == Sequence::Primary;
-                let planned = if command.kind == MotionCommandKind::MoveLinear as u8 {
-                    match queued.linear {
-                        Some(plan) if plan.start() == &self.point.q => match plan {
-                            LinearPlan::Move(m) => Ok(Some(Path::Linear(m))),
-                            LinearPlan::Stationary(_) => Ok(None),
-                        },
-                        _ => return,
-                    }
+            Phase::Idle => self.start_next(&mut tick, report),
+            Phase::Running(running) => self.run(running, &mut tick, report),
+            Phase::Blending(mut blend) => {
+                let (target, rate) = if blend.braking {
+                    (0.0, blend.overlap.stop_rate)
                 } else {
-                    match JointMove::plan(
-                        self.point.q,
-                        command,
-                        &dynamics.limits,
-                        dynamics.override_reserve,
-                    ) {
-                        Ok(Plan::Move(m)) => Ok(Some(Path::Joint(m))),
-                        Ok(Plan::Stationary) => Ok(None),
-                        Err(e) => Err(e.code()),
-                    }
+                    (override_target, blend.overlap.override_rate)
                 };
-                cursor.pass(sequence);
-                let active = ActiveMove {
-                    job: command.job,
-                    sequence,
-                    hold_after,
-                };
-                match planned {
-                    Err(code) => report(command.job, state::ERROR, code),
-                    Ok(None) => {
-                        self.point.q = command.joints_rad;
-                        report(command.job, state::ACTIVE, 0);
-                        self.finish(active, report);
-                    }
-                    Ok(Some(plan)) => {
-                        report(command.job, state::ACTIVE, 0);
-                        self.run(active, plan, 0.0, dt, override_target, report);
-                    }
-                }
-            }
-            Phase::Running { active, plan, tau } => {
-                self.run(active, plan, tau, dt, override_target, report)
+                let step = self.retime(target, rate, dt);
+                blend.tau += step;
+                blend.outgoing_tau += step;
+                self.overlap(blend);
             }
             Phase::Braking {
                 sequence,
@@ -255,6 +365,70 @@ impl Motion {
                     }
                 };
             }
+            Phase::Waiting {
+                active,
+                left_s,
+                duration_s,
+            } => self.wait(active, left_s - dt, duration_s, report),
+        }
+    }
+
+    /// A standing arm starts the next move or wait, if any.
+    fn start_next(&mut self, tick: &mut Tick<'_>, report: &mut impl FnMut(u32, u8, u16)) {
+        self.stand(tick.override_target);
+        let Some((sequence, queued)) = tick.sequences.next(tick.cursor, self.holds) else {
+            return;
+        };
+        let command = &queued.command;
+        let active = ActiveMove::of(command, sequence);
+        if command.kind == MotionCommandKind::Wait as u8 {
+            tick.cursor.pass(sequence);
+            report(command.job, state::ACTIVE, 0);
+            return self.wait(
+                active,
+                command.duration_s - tick.dt,
+                command.duration_s,
+                report,
+            );
+        }
+        let planned = if cartesian_path::is_cartesian(command) {
+            match queued.linear {
+                Some(plan) if plan.start() == &self.point.q => match plan {
+                    LinearPlan::Move(m) => Ok(Some(Path::Linear(m))),
+                    LinearPlan::Stationary(_) => Ok(None),
+                },
+                _ => return,
+            }
+        } else {
+            match JointMove::plan(
+                self.point.q,
+                command,
+                &tick.dynamics.limits,
+                tick.dynamics.override_reserve,
+            ) {
+                Ok(Plan::Move(m)) => Ok(Some(Path::Joint(m))),
+                Ok(Plan::Stationary) => Ok(None),
+                Err(e) => Err(e.code()),
+            }
+        };
+        tick.cursor.pass(sequence);
+        match planned {
+            Err(code) => report(command.job, state::ERROR, code),
+            Ok(None) => {
+                self.point.q = command.joints_rad;
+                report(command.job, state::ACTIVE, 0);
+                self.finish(active, report);
+            }
+            Ok(Some(plan)) => {
+                report(command.job, state::ACTIVE, 0);
+                let running = Running {
+                    active,
+                    plan,
+                    tau: 0.0,
+                    handover: Handover::Undecided,
+                };
+                self.run(running, tick, report);
+            }
         }
     }
 
@@ -268,39 +442,152 @@ impl Motion {
         self.path_rate = (0.0, 0.0);
     }
 
-    /// One tick of a running move under the override: τ advances at the rate σ, and σ
-    /// approaches the target no faster than the move's override rate.
-    fn run(
-        &mut self,
-        active: ActiveMove,
-        plan: Path,
-        tau: f64,
-        dt: f64,
-        override_target: f64,
-        report: &mut impl FnMut(u32, u8, u16),
-    ) {
-        let timing = *plan.timing();
-        let max_change = timing.override_rate * dt;
-        let sigma = self.sigma + (override_target - self.sigma).clamp(-max_change, max_change);
+    /// σ approaches `target` no faster than `rate` (1/s) over a tick of `dt`; returns how
+    /// far the profiles' time τ advances in it.
+    fn retime(&mut self, target: f64, rate: f64, dt: f64) -> f64 {
+        let max_change = rate * dt;
+        let sigma = self.sigma + (target - self.sigma).clamp(-max_change, max_change);
         self.sigma_rate = (sigma - self.sigma) / dt;
         // σ is linear within the tick, so the trapezoid is the exact integral.
-        let tau = tau + 0.5 * (self.sigma + sigma) * dt;
+        let step = 0.5 * (self.sigma + sigma) * dt;
         self.sigma = sigma;
-        let profile = timing.profile;
-        if tau >= profile.duration() {
-            self.point = plan.point(1.0, 0.0, 0.0, &self.point.q);
+        step
+    }
+
+    /// One tick of a running move under the override; a planned blend starts the next move
+    /// when the overlap begins.
+    fn run(
+        &mut self,
+        mut running: Running,
+        tick: &mut Tick<'_>,
+        report: &mut impl FnMut(u32, u8, u16),
+    ) {
+        let rate = running.plan.timing().override_rate;
+        running.tau += self.retime(tick.override_target, rate, tick.dt);
+        if let Handover::Blend(blend) = running.handover
+            && running.tau >= blend.overlap.start
+        {
+            let next = blend.next;
+            let still_next =
+                tick.sequences
+                    .next(tick.cursor, self.holds)
+                    .is_some_and(|(sequence, queued)| {
+                        sequence == next.sequence && queued.command.job == next.job
+                    });
+            if still_next {
+                tick.cursor.pass(next.sequence);
+                self.finish(running.active, report);
+                report(next.job, state::ACTIVE, 0);
+                return self.overlap(Blend {
+                    active: next,
+                    plan: blend.plan,
+                    tau: running.tau - blend.overlap.start,
+                    joints: running.plan.target(),
+                    outgoing: running.plan,
+                    outgoing_tau: running.tau,
+                    outgoing_joints: self.point.q,
+                    overlap: blend.overlap,
+                    braking: false,
+                });
+            }
+            // The sequence changed under the plan: end as planned without it.
+            running.handover = Handover::ExactStop;
+        }
+        if running.tau >= running.plan.timing().profile.duration() {
+            self.point = running.plan.point(1.0, 0.0, 0.0, &self.point.q);
             self.path_position = 1.0;
             self.path_rate = (0.0, 0.0);
             self.phase = Phase::Idle;
-            self.finish(active, report);
+            self.finish(running.active, report);
             return;
         }
-        let (s, sd, sdd) = profile.eval(tau);
-        let rate = (sd * sigma, sdd * sigma * sigma + sd * self.sigma_rate);
-        self.point = plan.point(s, rate.0, rate.1, &self.point.q);
+        self.place(&running.plan, running.tau);
+        self.phase = Phase::Running(running);
+    }
+
+    /// Commands the point of `plan` at `tau` under the current time scale.
+    fn place(&mut self, plan: &Path, tau: f64) {
+        let (point, s, rate) = self.point_of(plan, tau, &self.point.q);
+        self.point = point;
         self.path_position = s;
         self.path_rate = rate;
-        self.phase = Phase::Running { active, plan, tau };
+    }
+
+    /// The point of `plan` at `tau` under the current time scale next to `previous`, its
+    /// path position and its path rates `(ṡ, s̈)`.
+    fn point_of(
+        &self,
+        plan: &Path,
+        tau: f64,
+        previous: &[f64; AXES],
+    ) -> (JointPoint, f64, (f64, f64)) {
+        let (s, sd, sdd) = plan.timing().profile.eval(tau);
+        let (sigma, sigma_rate) = (self.sigma, self.sigma_rate);
+        let rate = (sd * sigma, sdd * sigma * sigma + sd * sigma_rate);
+        (plan.point(s, rate.0, rate.1, previous), s, rate)
+    }
+
+    /// Commands the blended point of `blend` at its times; once the outgoing move has ended
+    /// the incoming one goes on alone, and a braking blend that stands is over.
+    fn overlap(&mut self, mut blend: Blend) {
+        if blend.outgoing_tau >= blend.outgoing.timing().profile.duration() {
+            // The outgoing move is at its end, where the incoming one started.
+            self.point.q = blend.joints;
+            self.place(&blend.plan, blend.tau);
+            self.phase = if blend.braking {
+                Phase::Braking {
+                    sequence: blend.active.sequence,
+                    plan: blend.plan,
+                    brake: self.path_brake(&blend.plan, blend.tau),
+                }
+            } else {
+                Phase::Running(Running {
+                    active: blend.active,
+                    plan: blend.plan,
+                    tau: blend.tau,
+                    handover: Handover::Undecided,
+                })
+            };
+            return;
+        }
+        let (a, _, _) = self.point_of(&blend.outgoing, blend.outgoing_tau, &blend.outgoing_joints);
+        let (b, s, rate) = self.point_of(&blend.plan, blend.tau, &blend.joints);
+        let corner = blend.outgoing.target();
+        self.point = JointPoint {
+            q: core::array::from_fn(|i| a.q[i] + b.q[i] - corner[i]),
+            qd: core::array::from_fn(|i| a.qd[i] + b.qd[i]),
+            qdd: core::array::from_fn(|i| a.qdd[i] + b.qdd[i]),
+        };
+        self.path_position = s;
+        self.path_rate = rate;
+        blend.outgoing_joints = a.q;
+        blend.joints = b.q;
+        self.phase = if blend.braking && self.sigma <= 0.0 {
+            // Stands on the blended path: the stop is over.
+            Phase::Idle
+        } else {
+            Phase::Blending(blend)
+        };
+    }
+
+    /// One tick of a wait with `left_s` left after it: DONE once no time is left.
+    fn wait(
+        &mut self,
+        active: ActiveMove,
+        left_s: f64,
+        duration_s: f64,
+        report: &mut impl FnMut(u32, u8, u16),
+    ) {
+        if left_s <= WAIT_TOLERANCE_S {
+            self.phase = Phase::Idle;
+            self.finish(active, report);
+        } else {
+            self.phase = Phase::Waiting {
+                active,
+                left_s,
+                duration_s,
+            };
+        }
     }
 
     /// Reports a move done; StepMode holds the primary sequence after it.

@@ -14,6 +14,8 @@
 //! with `V·(T_a(V) + T_d(V))/2 = 1`: closed form when both or neither ramp reach their limit,
 //! bisection in the mixed case (only with `a ≠ d`).
 
+use crate::topp::TableProfile;
+
 /// Bisection steps for the peak speed of the mixed case: the bracket shrinks below one ulp.
 const BISECTION_STEPS: usize = 80;
 
@@ -207,6 +209,52 @@ impl DoubleS {
             // The deceleration is its ramp mirrored in time and space.
             let (s, sd, sdd) = self.decel.eval(total - t, v, j);
             (1.0 - s, sd, -sdd)
+        }
+    }
+}
+
+/// The time scaling of a move's path: a double-S on constant bounds, or the table of a
+/// time-optimal path parameterisation ([`TableProfile`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "profiles are copied ahead in the tick path, where boxing would allocate"
+)]
+pub enum Profile {
+    DoubleS(DoubleS),
+    Table(TableProfile),
+}
+
+impl Profile {
+    /// Total time from rest at `s = 0` to rest at `s = 1`, in s.
+    pub fn duration(&self) -> f64 {
+        match self {
+            Self::DoubleS(p) => p.duration(),
+            Self::Table(p) => p.duration(),
+        }
+    }
+
+    /// `(s, ṡ, s̈)` at time `t`; before 0 at rest at 0, after the end at rest at 1.
+    pub fn eval(&self, t: f64) -> (f64, f64, f64) {
+        match self {
+            Self::DoubleS(p) => p.eval(t),
+            Self::Table(p) => p.eval(t),
+        }
+    }
+
+    /// Largest `ṡ` of the profile.
+    pub fn peak_velocity(&self) -> f64 {
+        match self {
+            Self::DoubleS(p) => p.peak_velocity(),
+            Self::Table(p) => p.peak_velocity(),
+        }
+    }
+
+    /// The same path in `duration` by uniform time scaling; not shorter than it is.
+    pub fn stretched(&self, duration: f64) -> Self {
+        match self {
+            Self::DoubleS(p) => Self::DoubleS(p.stretched(duration)),
+            Self::Table(p) => Self::Table(p.stretched(duration)),
         }
     }
 }

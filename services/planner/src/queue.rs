@@ -14,7 +14,7 @@ pub struct QueuedMove {
 }
 
 impl QueuedMove {
-    /// A joint move (MoveAxes) of `command`.
+    /// An element without a Cartesian plan: a joint move (MoveAxes) or a WaitTime.
     pub fn joint(command: MotionCommand) -> Self {
         Self {
             command,

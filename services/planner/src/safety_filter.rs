@@ -54,6 +54,10 @@ const JOINT_WEIGHT: f64 = 1e-3;
 const MAX_ITERATIONS: u32 = 50;
 /// Relative slack for rounding when judging whether the reference keeps the bounds.
 const SLACK: f64 = 1e-9;
+/// Position tolerance (rad) of [`SafetyFilter::admits`]: rounding of a plan ending on a limit.
+const ADMIT_TOLERANCE_RAD: f64 = 1e-9;
+/// Relative tolerance of [`SafetyFilter::admits`] on the velocity and acceleration limits.
+const ADMIT_SLACK: f64 = 1e-6;
 /// Entries of the upper triangle of the 6×6 cost matrix.
 const COST_ENTRIES: usize = AXES * (AXES + 1) / 2;
 
@@ -231,6 +235,76 @@ impl SafetyFilter {
                 Intervention::Clipped,
             ),
         }
+    }
+
+    /// Whether the planned point `next` keeps the limits by itself: position, velocity and
+    /// acceleration within the limits, and every joint able to stop before its position
+    /// limits with its acceleration limit (`q + q̇·|q̇|/(2a)` inside them). Every planned
+    /// move, stop and blend does; the test uses the plan's own values, so that it does not
+    /// depend on how the plan's acceleration varies within the tick.
+    pub fn admits(&self, next: &JointPoint) -> bool {
+        let l = &self.limits;
+        (0..AXES).all(|i| {
+            let (q, qd, qdd) = (next.q[i], next.qd[i], next.qdd[i]);
+            let stop = q + qd * qd.abs() / (2.0 * l.acceleration[i]);
+            let tolerance = ADMIT_TOLERANCE_RAD;
+            q.min(stop) >= l.min[i] - tolerance
+                && q.max(stop) <= l.max[i] + tolerance
+                && qd.abs() <= l.velocity[i] * (1.0 + ADMIT_SLACK)
+                && qdd.abs() <= l.acceleration[i] * (1.0 + ADMIT_SLACK)
+        })
+    }
+
+    /// The point commanded for the tick after `previous`: `planned` itself when it keeps
+    /// the limits ([`admits`](Self::admits)), else the filtered point closest to the plan's
+    /// acceleration. `jacobian` gives the Jacobian at a joint position; it is only
+    /// evaluated when the filter acts.
+    pub fn guard(
+        &mut self,
+        previous: &JointPoint,
+        planned: &JointPoint,
+        dt: f64,
+        jacobian: impl FnOnce(&[f64; AXES]) -> Matrix6<f64>,
+    ) -> Filtered {
+        if self.admits(planned) {
+            return Filtered {
+                point: *planned,
+                intervention: Intervention::None,
+            };
+        }
+        let filtered = self.filter(previous, &planned.qdd, &jacobian(&previous.q), dt);
+        Filtered {
+            // The plan asked for nothing the limits allow: stop instead.
+            intervention: match filtered.intervention {
+                Intervention::None => Intervention::Corrected,
+                other => other,
+            },
+            ..filtered
+        }
+    }
+
+    /// One tick of a stop from `previous` (a guard stop): as close to standing still after
+    /// this tick as the bounds allow, weighted so that the TCP keeps its direction while it
+    /// slows down; a joint that the weighting would speed up brakes on its own instead, so
+    /// every joint slows down every tick and the arm stands after at most
+    /// `max(v_i/a_i)/Δt + 1` ticks.
+    pub fn brake(
+        &mut self,
+        previous: &JointPoint,
+        dt: f64,
+        jacobian: impl FnOnce(&[f64; AXES]) -> Matrix6<f64>,
+    ) -> Filtered {
+        let stop_now: [f64; AXES] = core::array::from_fn(|i| -previous.qd[i] / dt);
+        let filtered = self.filter(previous, &stop_now, &jacobian(&previous.q), dt);
+        let slows_down = (0..AXES).all(|i| filtered.point.qd[i].abs() <= previous.qd[i].abs());
+        if slows_down {
+            return filtered;
+        }
+        let braking: [f64; AXES] = core::array::from_fn(|i| {
+            let a = self.limits.acceleration[i];
+            stop_now[i].clamp(-a, a)
+        });
+        step(previous, &braking, dt, Intervention::Braking)
     }
 
     /// The QP of the module documentation; `None` if the solver does not converge.

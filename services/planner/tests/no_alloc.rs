@@ -1,7 +1,7 @@
 //! The planner's per-tick work allocates nothing in the steady state: a counting global
 //! allocator watches `Executor::step` while joint and linear moves, override changes, an
-//! interrupt, a secondary move (a jog) while the primary sequence is held, a continue and a
-//! stop run through it.
+//! interrupt, a secondary move (a jog) while the primary sequence is held, a continue, a
+//! stop, blended moves and a wait run through it.
 
 use planner::executor::Executor;
 use planner::kinematics::Kinematics;
@@ -55,10 +55,30 @@ fn steady_state_ticks_do_not_allocate() {
     let mut ticks = 0;
     let mut events = Vec::with_capacity(1000);
     let mut seen = 0;
-    for round in 0..8u32 {
-        let mut commands = Vec::with_capacity(2);
-        // Rounds 0..6 alternate joint moves; 6 and 7 are linear moves there and back.
-        let mv = if round < 6 {
+    let mut blended = false;
+    for round in 0..9u32 {
+        let mut commands = Vec::with_capacity(4);
+        // Rounds 0..6 alternate joint moves; 6 and 7 are linear moves there and back; 8
+        // blends a joint move into a line and the line into a joint move, then waits.
+        let mv = if round == 8 {
+            let mut there = command(MotionCommandKind::MoveAxes, 20);
+            there.joints_rad = targets[1];
+            there.blending_mode = 11;
+            there.blending_parameter = [1.0, 0.0];
+            commands.push(there);
+            let mut line = command(MotionCommandKind::MoveLinear, 21);
+            line.tool = tool;
+            line.pose = line_target;
+            line.blending_mode = 3;
+            line.blending_parameter = [0.05, 0.0];
+            commands.push(line);
+            let mut wait = command(MotionCommandKind::Wait, 22);
+            wait.duration_s = 0.1;
+            commands.push(wait);
+            let mut back = command(MotionCommandKind::MoveAxes, 23);
+            back.joints_rad = targets[0];
+            back
+        } else if round < 6 {
             let mut mv = command(MotionCommandKind::MoveAxes, 10 + round);
             mv.joints_rad = targets[round as usize % 2];
             mv
@@ -91,6 +111,7 @@ fn steady_state_ticks_do_not_allocate() {
             };
             let (window, a) = count(|| executor.step(&feedback, batch));
             allocations += a;
+            blended |= executor.is_blending();
             ticks += 1;
             let status = executor.status();
             for n in seen + 1..=status.event_head {
@@ -115,6 +136,9 @@ fn steady_state_ticks_do_not_allocate() {
     assert!(events.contains(&(16, state::DONE, 0)), "{events:?}");
     assert!(events.contains(&(17, state::ACTIVE, 0)), "{events:?}");
     assert!(events.contains(&(17, state::ABORTED, code::ABORTED_BY_GROUP_STOP)));
+    // The blended moves and the wait ran.
+    assert!(blended, "no blend in {events:?}");
+    assert!(events.contains(&(22, state::DONE, 0)) && events.contains(&(23, state::DONE, 0)));
     assert_eq!(allocations, 0, "allocations in {ticks} planner ticks");
     let (_, probe) = count(|| std::hint::black_box(vec![0u8; 16]));
     assert_eq!(probe, 1, "the counter sees allocations");

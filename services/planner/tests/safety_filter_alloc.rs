@@ -37,5 +37,8 @@ fn a_passing_tick_allocates_nothing_and_a_corrected_tick_at_most_once() {
     let (corrected, allocations) = count(|| filter.filter(&current, &runaway, &jacobian, 0.001));
     assert_eq!(corrected.intervention, Intervention::Corrected);
     eprintln!("allocations of one corrected tick: {allocations}");
-    assert!(allocations <= 1, "allocations of one corrected tick: {allocations}");
+    assert!(
+        allocations <= 1,
+        "allocations of one corrected tick: {allocations}"
+    );
 }

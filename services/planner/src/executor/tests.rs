@@ -149,6 +149,23 @@ impl Rig {
         self.seen = s.event_head;
     }
 
+    /// Sends GroupInterrupt as job `job`, which interrupts the running job `running`, and
+    /// checks that the arm then stands for 100 ticks.
+    fn interrupt_and_stand(&mut self, job: u32, running: u32) {
+        let interrupt = self.command(MotionCommandKind::Interrupt, job);
+        self.step(&[interrupt]);
+        assert_eq!(
+            self.states_of(running).last(),
+            Some(&(state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT))
+        );
+        self.run_until(20_000, |r| r.is_final(job));
+        let stood = self.feedback.q;
+        for _ in 0..100 {
+            self.step(&[]);
+        }
+        assert_eq!(self.feedback.q, stood);
+    }
+
     fn run_until(&mut self, ticks: usize, done: impl Fn(&Self) -> bool) {
         for _ in 0..ticks {
             if done(self) {
@@ -1141,18 +1158,7 @@ mod linear {
         let mut rig = Rig::new();
         let (start, target) = started(&mut rig);
         rig.run_until(20_000, |r| r.executor.status().active_progress > 40.0);
-        let interrupt = rig.command(MotionCommandKind::Interrupt, 2);
-        rig.step(&[interrupt]);
-        assert_eq!(
-            rig.states_of(1).last(),
-            Some(&(state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT))
-        );
-        rig.run_until(20_000, |r| r.is_final(2));
-        let stood = rig.feedback.q;
-        for _ in 0..100 {
-            rig.step(&[]);
-        }
-        assert_eq!(rig.feedback.q, stood);
+        rig.interrupt_and_stand(2, 1);
         let resume = rig.command(MotionCommandKind::Continue, 3);
         rig.step(&[resume]);
         finish(&mut rig, start, target);
@@ -1721,4 +1727,482 @@ mod sequences {
         rig.assert_done(&[5]);
         assert!(!rig.is_final(1) && rig.executor.status().sequence_paused);
     }
+}
+
+mod blending {
+    use super::*;
+    use crate::joint_move::Plan;
+
+    const EXACT_STOP: u8 = 0;
+    const DEFINED_VELOCITY: u8 = 2;
+    const CORNER_DISTANCE: u8 = 3;
+    const MAX_CORNER_DEVIATION: u8 = 4;
+    const CORNER_DISTANCE_2R: u8 = 10;
+    const RAMP_OVERLAP: u8 = 11;
+    const CORNER_DISTANCE_1R: u8 = 12;
+
+    fn shifted_joints(q: [f64; AXES], delta: [f64; AXES]) -> [f64; AXES] {
+        core::array::from_fn(|i| q[i] + delta[i])
+    }
+
+    /// The corner of the pair: where A ends and B starts.
+    fn corner() -> [f64; AXES] {
+        shifted_joints(home(), [0.8, 0.0, 0.0, 0.0, 0.0, 0.3])
+    }
+
+    /// Where B ends, moving other joints than A.
+    fn b_end() -> [f64; AXES] {
+        shifted_joints(corner(), [0.0, 0.6, 0.9, 0.4, 0.0, 0.0])
+    }
+
+    impl Rig {
+        /// A move to `target` that blends into the next one by `mode` and `parameter`.
+        fn blending_to(
+            &mut self,
+            job: u32,
+            target: [f64; AXES],
+            mode: u8,
+            parameter: [f64; 2],
+        ) -> MotionCommand {
+            let c = self.move_to(job, target);
+            with_blending(c, mode, parameter)
+        }
+
+        /// Every job of `jobs` ended DONE, the arm at `target`, every point within the
+        /// limits.
+        fn assert_done_at(&self, jobs: &[u32], target: [f64; AXES]) {
+            self.assert_done(jobs);
+            assert_eq!(self.feedback.q, target);
+            self.check_limits();
+        }
+
+        /// A line of the TCP to [`corner`]'s shifted by `shift` (m), blending by `mode`.
+        fn blending_line(
+            &mut self,
+            job: u32,
+            shift: [f64; 3],
+            mode: u8,
+            parameter: [f64; 2],
+        ) -> MotionCommand {
+            let mut c = self.line_by(job, [0.0; 3], [0.0; 3]);
+            c.pose = shifted(&tcp_of(&corner()), shift, [0.0; 3]);
+            with_blending(c, mode, parameter)
+        }
+    }
+
+    fn with_blending(mut command: MotionCommand, mode: u8, parameter: [f64; 2]) -> MotionCommand {
+        command.blending_mode = mode;
+        command.blending_parameter = parameter;
+        command
+    }
+
+    /// Rig with A (job 1, to [`corner`], blending by `mode`) and B (job 2, to [`b_end`])
+    /// sent together.
+    fn pair(mode: u8, parameter: [f64; 2]) -> Rig {
+        let mut rig = Rig::new();
+        let a = rig.blending_to(1, corner(), mode, parameter);
+        let b = rig.move_to(2, b_end());
+        rig.step(&[a, b]);
+        rig
+    }
+
+    /// Ticks the pair of `mode` takes from sending to B's end, within the limits.
+    fn pair_ticks(mode: u8, parameter: [f64; 2]) -> usize {
+        let mut rig = pair(mode, parameter);
+        rig.run_until(20_000, |r| r.is_final(2));
+        rig.assert_done_at(&[1, 2], b_end());
+        rig.trace.len()
+    }
+
+    /// A's deceleration ramp at 100 % override, s.
+    fn braking_ramp_of_a() -> f64 {
+        let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
+        c.joints_rad = corner();
+        let cfg = config();
+        let Ok(Plan::Move(m)) = JointMove::plan(
+            home(),
+            &c,
+            &cfg.robot.limits_rad(),
+            cfg.main.planner.override_reserve,
+        ) else {
+            panic!("A moves");
+        };
+        let profile = m.timing().profile;
+        let total = profile.duration();
+        let braking = (0..=100_000)
+            .map(|k| total * k as f64 / 100_000.0)
+            .find(|&t| profile.eval(t).2 < 0.0)
+            .unwrap();
+        total - braking
+    }
+
+    #[test]
+    fn a_full_ramp_overlap_shortens_the_pair_by_the_braking_ramp() {
+        let exact = pair_ticks(EXACT_STOP, [0.0; 2]);
+        let ramp = pair_ticks(RAMP_OVERLAP, [1.0, 0.0]);
+        let saved = (exact - ramp) as f64 * DT;
+        assert!((saved - braking_ramp_of_a()).abs() <= 3.0 * DT, "{saved}");
+        // Half the overlap saves half the time.
+        let half = pair_ticks(RAMP_OVERLAP, [0.5, 0.0]);
+        let saved_half = (exact - half) as f64 * DT;
+        assert!((saved_half - 0.5 * braking_ramp_of_a()).abs() <= 3.0 * DT);
+    }
+
+    #[test]
+    fn every_mode_blends_as_its_parameter_says() {
+        let exact = pair_ticks(EXACT_STOP, [0.0; 2]);
+        let ramp = pair_ticks(RAMP_OVERLAP, [1.0, 0.0]);
+        // Slowing down to the full speed is the start of the braking ramp.
+        let velocity = pair_ticks(DEFINED_VELOCITY, [1.0, 0.0]);
+        assert!(velocity.abs_diff(ramp) <= 2, "{velocity} {ramp}");
+        assert!(pair_ticks(DEFINED_VELOCITY, [0.2, 0.0]) > velocity);
+        // Larger radii and deviations blend earlier.
+        let radius = |r: f64| pair_ticks(CORNER_DISTANCE, [r, 0.0]);
+        let (near, far) = (radius(0.01), radius(0.05));
+        assert!(exact > near && near > far, "{exact} {near} {far}");
+        let deviation = |d: f64| pair_ticks(MAX_CORNER_DEVIATION, [d, 0.0]);
+        assert!(exact > deviation(0.002) && deviation(0.002) > deviation(0.01));
+        // Joining closer to the corner than leaving: the join radius decides.
+        let two = pair_ticks(CORNER_DISTANCE_2R, [0.05, 0.01]);
+        assert!(two > far && two < exact);
+        let one = pair_ticks(CORNER_DISTANCE_1R, [0.05, 0.0]);
+        assert!(one >= far && one < exact);
+    }
+
+    #[test]
+    fn a_parameter_asking_for_too_much_is_clipped_to_half_of_each_move() {
+        // A's braking ramp is half of it, and B is the longer move: both clip there.
+        let ramp = pair_ticks(RAMP_OVERLAP, [1.0, 0.0]);
+        let huge = pair_ticks(CORNER_DISTANCE, [10.0, 0.0]);
+        assert!(huge.abs_diff(ramp) <= 2, "{huge} {ramp}");
+        let fraction = pair_ticks(RAMP_OVERLAP, [7.0, 0.0]);
+        assert_eq!(fraction, ramp);
+    }
+
+    #[test]
+    fn a_is_done_when_b_becomes_active_and_the_status_shows_the_blend() {
+        let mut rig = pair(RAMP_OVERLAP, [1.0, 0.0]);
+        rig.run_until(10_000, |r| r.is_final(1));
+        assert!(rig.executor.is_blending());
+        let s = rig.executor.status();
+        assert!(s.moving);
+        assert_eq!((s.active_job, s.queued_jobs), (2, 0));
+        let order: Vec<(u32, u8)> = rig.events.iter().map(|e| (e.job, e.state)).collect();
+        assert_eq!(
+            order,
+            [
+                (1, state::BUFFERED),
+                (2, state::BUFFERED),
+                (1, state::ACTIVE),
+                (1, state::DONE),
+                (2, state::ACTIVE),
+            ]
+        );
+        // The arm never stood at the corner.
+        assert!(!rig.trace.iter().any(|p| p.q == corner()));
+        rig.run_until(10_000, |r| r.is_final(2));
+        assert!(!rig.executor.is_blending());
+        rig.assert_done(&[2]);
+        rig.check_limits();
+    }
+
+    #[test]
+    fn a_late_next_move_or_a_step_mode_hold_means_an_exact_stop() {
+        let mut rig = Rig::new();
+        let a = rig.blending_to(1, corner(), RAMP_OVERLAP, [1.0, 0.0]);
+        rig.step(&[a]);
+        rig.run_until(10_000, |r| r.executor.status().active_progress > 60.0);
+        let b = rig.move_to(2, b_end());
+        rig.step(&[b]);
+        rig.run_until(10_000, |r| r.is_final(2));
+        assert!(
+            rig.trace
+                .iter()
+                .any(|p| p.q == corner() && p.qd == [0.0; AXES])
+        );
+
+        let mut rig = Rig::new();
+        let mut a = rig.blending_to(1, corner(), RAMP_OVERLAP, [1.0, 0.0]);
+        a.hold_after = true;
+        a.sequence = MotionSequence::Primary as u8;
+        let b = rig.move_to(2, b_end());
+        rig.step(&[a, b]);
+        rig.run_until(10_000, |r| r.is_final(1));
+        assert_eq!(rig.feedback.q, corner());
+        assert!(rig.executor.status().sequence_paused && !rig.is_final(2));
+    }
+
+    #[test]
+    fn a_stop_during_the_blend_brakes_on_the_blended_path_and_discards_b() {
+        let mut rig = pair(RAMP_OVERLAP, [1.0, 0.0]);
+        rig.run_until(10_000, |r| r.executor.is_blending());
+        for _ in 0..50 {
+            rig.step(&[]);
+        }
+        let stop = rig.command(MotionCommandKind::Stop, 3);
+        rig.step(&[stop]);
+        rig.assert_done(&[1]);
+        assert_eq!(
+            rig.final_state(2),
+            Some((state::ABORTED, code::ABORTED_BY_GROUP_STOP))
+        );
+        rig.run_until(10_000, |r| r.is_final(3));
+        rig.assert_done(&[3]);
+        assert!(!rig.executor.status().moving);
+        let stood = rig.feedback.q;
+        for _ in 0..100 {
+            rig.step(&[]);
+        }
+        assert_eq!(rig.feedback.q, stood);
+        assert_ne!(stood, b_end());
+        rig.check_limits();
+    }
+
+    #[test]
+    fn an_interrupt_during_the_blend_holds_b_and_continue_finishes_it() {
+        let mut rig = pair(CORNER_DISTANCE, [0.05, 0.0]);
+        rig.run_until(10_000, |r| r.executor.is_blending());
+        rig.set_override(3, 0.6);
+        rig.interrupt_and_stand(4, 2);
+        let resume = rig.command(MotionCommandKind::Continue, 5);
+        rig.step(&[resume]);
+        rig.run_until(10_000, |r| r.is_final(2));
+        rig.assert_done_at(&[1, 2, 3, 4, 5], b_end());
+    }
+
+    #[test]
+    fn override_changes_during_the_blend_keep_the_limits() {
+        let mut rig = pair(CORNER_DISTANCE_1R, [0.05, 0.0]);
+        rig.run_until(10_000, |r| r.executor.is_blending());
+        rig.set_override(3, 0.2);
+        for _ in 0..30 {
+            rig.step(&[]);
+        }
+        rig.set_override(4, 1.0);
+        rig.run_until(10_000, |r| r.is_final(2));
+        rig.assert_done_at(&[1, 2, 3, 4], b_end());
+    }
+
+    #[test]
+    fn joint_and_linear_moves_blend_into_each_other() {
+        let mut rig = Rig::new();
+        let a = rig.blending_to(1, corner(), RAMP_OVERLAP, [1.0, 0.0]);
+        let line = rig.blending_line(2, [0.1, 0.05, -0.05], CORNER_DISTANCE_1R, [0.03, 0.0]);
+        let back = rig.blending_line(3, [0.1, -0.08, 0.0], RAMP_OVERLAP, [1.0, 0.0]);
+        let home_again = rig.move_to(4, home());
+        rig.step(&[a, line, back, home_again]);
+        // Joint into line, line into line, line into joint.
+        let mut blends = 0;
+        let mut was_blending = false;
+        for _ in 0..30_000 {
+            if rig.is_final(4) {
+                break;
+            }
+            rig.step(&[]);
+            let blending = rig.executor.is_blending();
+            blends += usize::from(blending && !was_blending);
+            was_blending = blending;
+        }
+        assert_eq!(blends, 3);
+        rig.assert_done_at(&[1, 2, 3, 4], home());
+    }
+
+    #[test]
+    fn a_wait_stands_for_its_duration_and_is_not_blended_across() {
+        let mut rig = Rig::new();
+        let a = rig.blending_to(1, corner(), RAMP_OVERLAP, [1.0, 0.0]);
+        let mut wait = rig.command(MotionCommandKind::Wait, 2);
+        wait.duration_s = 0.25;
+        let b = rig.move_to(3, b_end());
+        rig.step(&[a, wait, b]);
+        rig.run_until(10_000, |r| r.is_final(1));
+        assert_eq!(rig.feedback.q, corner());
+        let from = rig.trace.len();
+        rig.run_until(10_000, |r| r.is_final(2));
+        let waited = rig.trace.len() - from;
+        assert!(waited.abs_diff(250) <= 2, "{waited}");
+        assert!(rig.trace[from..].iter().all(|p| p.q == corner()));
+        rig.run_until(10_000, |r| r.is_final(3));
+        rig.assert_done(&[1, 2, 3]);
+        assert_eq!(rig.feedback.q, b_end());
+    }
+
+    #[test]
+    fn an_interrupt_pauses_the_clock_of_a_wait() {
+        let mut rig = Rig::new();
+        let mut wait = rig.command(MotionCommandKind::Wait, 1);
+        wait.duration_s = 0.3;
+        let b = rig.move_to(2, corner());
+        rig.step(&[wait, b]);
+        for _ in 0..99 {
+            rig.step(&[]);
+        }
+        let interrupt = rig.command(MotionCommandKind::Interrupt, 3);
+        rig.step(&[interrupt]);
+        assert_eq!(
+            rig.states_of(1).last(),
+            Some(&(state::INTERRUPTED, code::INTERRUPTED_BY_GROUP_INTERRUPT))
+        );
+        rig.assert_done(&[3]);
+        for _ in 0..500 {
+            rig.step(&[]);
+        }
+        assert!(!rig.is_final(1));
+        let resume = rig.command(MotionCommandKind::Continue, 4);
+        rig.step(&[resume]);
+        let from = rig.trace.len();
+        rig.run_until(10_000, |r| r.is_final(1));
+        let rest = rig.trace.len() - from;
+        assert!(rest.abs_diff(200) <= 2, "{rest}");
+        rig.run_until(10_000, |r| r.is_final(2));
+        rig.assert_done(&[1, 2, 4]);
+    }
+
+    #[test]
+    fn invalid_blending_and_wait_parameters_are_refused() {
+        let mut rig = Rig::new();
+        let bad_mode = rig.blending_to(1, corner(), 1, [0.0; 2]);
+        let bad_parameter = rig.blending_to(2, corner(), CORNER_DISTANCE, [-0.1, 0.0]);
+        let mut bad_wait = rig.command(MotionCommandKind::Wait, 3);
+        bad_wait.duration_s = f64::NAN;
+        rig.step(&[bad_mode, bad_parameter, bad_wait]);
+        let codes: Vec<_> = (1..=3).map(|job| rig.final_state(job)).collect();
+        let refused = |code| Some((state::ERROR, code));
+        assert_eq!(
+            codes,
+            [
+                refused(code::INVALID_BLENDING_MODE),
+                refused(code::INVALID_BLENDING_PARAMETER),
+                refused(code::INVALID_TIME)
+            ]
+        );
+    }
+
+    mod random {
+        use super::*;
+        use proptest::prelude::*;
+
+        #[derive(Debug, Clone)]
+        enum Leg {
+            /// A joint move to home plus these offsets.
+            Joint([f64; AXES]),
+            /// A line of the TCP to home's shifted by this much (m).
+            Line([f64; 3]),
+        }
+
+        fn leg() -> impl Strategy<Value = Leg> {
+            prop_oneof![
+                prop::array::uniform6(-0.6f64..0.6).prop_map(Leg::Joint),
+                prop::array::uniform3(-0.12f64..0.12).prop_map(Leg::Line),
+            ]
+        }
+
+        fn blending() -> impl Strategy<Value = (u8, [f64; 2])> {
+            prop_oneof![
+                Just((EXACT_STOP, [0.0; 2])),
+                (0.0f64..1.2).prop_map(|f| (DEFINED_VELOCITY, [f, 0.0])),
+                (0.0f64..0.3).prop_map(|r| (CORNER_DISTANCE, [r, 0.0])),
+                (0.0f64..0.05).prop_map(|d| (MAX_CORNER_DEVIATION, [d, 0.0])),
+                (0.0f64..0.3, 0.0f64..0.3).prop_map(|(l, j)| (CORNER_DISTANCE_2R, [l, j])),
+                (0.0f64..1.5).prop_map(|f| (RAMP_OVERLAP, [f, 0.0])),
+                (0.0f64..0.3).prop_map(|r| (CORNER_DISTANCE_1R, [r, 0.0])),
+            ]
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(16))]
+
+            /// Joint and linear moves blended by any mode, under any override: no tick
+            /// leaves a joint position, velocity or acceleration limit, and every move
+            /// that was buffered ends DONE.
+            #[test]
+            fn random_blended_sequences_keep_the_joint_limits(
+                legs in prop::collection::vec((leg(), blending()), 2..6),
+                first_override in 0.3f64..=1.0,
+                change in (0usize..3000, 0.0f64..=1.0),
+            ) {
+                let mut rig = Rig::new();
+                rig.set_override(100, first_override);
+                let base = home();
+                let mut commands = Vec::new();
+                for (k, (leg, (mode, parameter))) in legs.iter().enumerate() {
+                    let job = k as u32 + 1;
+                    let c = match leg {
+                        Leg::Joint(offset) => rig.move_to(job, shifted_joints(base, *offset)),
+                        Leg::Line(shift) => {
+                            let mut c = rig.command(MotionCommandKind::MoveLinear, job);
+                            c.tool = tool();
+                            c.pose = shifted(&tcp_of(&base), *shift, [0.0; 3]);
+                            c
+                        }
+                    };
+                    commands.push(with_blending(c, *mode, *parameter));
+                }
+                rig.step(&commands);
+                for _ in 0..change.0 {
+                    rig.step(&[]);
+                }
+                rig.set_override(101, change.1);
+                for _ in 0..200 {
+                    rig.step(&[]);
+                }
+                rig.set_override(102, 1.0);
+                let jobs = 1..=legs.len() as u32;
+                rig.run_until(60_000, |r| {
+                    jobs.clone().all(|j| r.is_final(j)) && !r.executor.status().moving
+                });
+                for job in jobs {
+                    let states = rig.states_of(job);
+                    // A line its start configuration cannot follow is refused at once.
+                    let refused = states.len() == 1 && states[0].0 == state::ERROR;
+                    prop_assert!(refused || rig.final_state(job) == Some((state::DONE, 0)));
+                }
+                rig.check_limits();
+            }
+        }
+    }
+}
+
+/// A plan that would leave the guard's limits (here: the guard's velocity limits lowered
+/// under a running move, as a planning fault would look) is stopped by the safety filter:
+/// the moves end with 0x6C02, the arm brakes within the guard's limits and stands, and
+/// after GroupReset moves run again.
+#[test]
+fn the_safety_filter_stops_a_plan_that_leaves_the_limits() {
+    let mut rig = Rig::running(30.0);
+    let mut narrow = rig.limits;
+    narrow.velocity = narrow.velocity.map(|v| 0.2 * v);
+    rig.executor.guard.set_limits(narrow);
+    let from = rig.trace.len();
+    rig.run_until(5_000, |r| r.is_final(1) && r.is_final(2));
+    assert_eq!(rig.final_state(1), Some((state::ERROR, code::MOTION_ERROR)));
+    assert_eq!(rig.final_state(2), Some((state::ERROR, code::MOTION_ERROR)));
+    assert_eq!(rig.executor.status().error_code, code::MOTION_ERROR);
+    rig.run_until(5_000, |r| {
+        r.trace.last().is_some_and(|p| p.qd == [0.0; AXES])
+    });
+    let stood = rig.feedback.q;
+    for _ in 0..50 {
+        rig.step(&[]);
+    }
+    assert_eq!(rig.feedback.q, stood, "the arm stands after the guard stop");
+    // The stop itself keeps the position and acceleration limits (the velocity limits
+    // were lowered under a moving arm: it slows down every tick instead).
+    let stop = &rig.trace[from..];
+    for w in stop.windows(2) {
+        for i in 0..AXES {
+            assert!(
+                w[1].qd[i].abs() <= w[0].qd[i].abs() + 1e-12,
+                "joint {i} speeds up"
+            );
+            assert!(w[1].qdd[i].abs() <= rig.limits.acceleration[i] * (1.0 + 1e-9));
+        }
+    }
+    rig.executor.guard.set_limits(rig.limits);
+    let reset = rig.command(MotionCommandKind::Reset, 3);
+    rig.step(&[reset]);
+    let back = rig.move_to(4, home());
+    rig.step(&[back]);
+    rig.run_until(20_000, |r| r.is_final(4));
+    rig.assert_done(&[4]);
 }
