@@ -6,6 +6,7 @@
 mod common;
 
 mod conformance {
+    mod blending;
     mod change_speed_override;
     mod default_dynamics;
     mod enable_robot;
@@ -17,8 +18,17 @@ mod conformance {
     mod group_stop;
     mod load_data;
     mod move_axes_absolute;
+    mod move_axes_relative;
+    mod move_circular_absolute;
+    mod move_circular_relative;
     mod move_direct_absolute;
+    mod move_direct_offset;
+    mod move_direct_relative;
     mod move_linear_absolute;
+    mod move_linear_absolute_j;
+    mod move_linear_offset;
+    mod move_linear_relative;
+    mod move_requests;
     mod read_actual_position;
     mod read_actual_position_cyclic;
     mod read_messages;
@@ -31,4 +41,5 @@ mod conformance {
     mod sync;
     mod tool_data;
     mod unsupported;
+    mod wait_time;
 }

@@ -26,7 +26,7 @@ fn handshake_enable_and_moves_reach_their_targets() {
     assert!(data.supports(t::enable_robot::TYPE));
     assert!(data.supports(t::move_linear_absolute::TYPE));
     assert!(
-        !data.supports(t::move_circular_absolute::TYPE),
+        !data.supports(t::move_depart_linear::TYPE),
         "only what is implemented"
     );
     reset_and_enable(&mut plc);
@@ -67,9 +67,9 @@ fn unsupported_command_gets_8f11_and_a_message() {
     let s = execute(
         &mut plc,
         &Request::Raw {
-            command_type: t::move_circular_absolute::TYPE,
+            command_type: t::move_depart_linear::TYPE,
             execution_mode: 0,
-            payload: vec![0; t::move_circular_absolute::request::LEN - 4],
+            payload: vec![0; t::move_depart_linear::request::LEN - 4],
         },
         Duration::from_secs(5),
     );

@@ -163,8 +163,11 @@ fn every_parameter_is_checked() {
             code::INVALID_DECELERATION_RATE,
         ),
         (
-            edited(|m| m.blending_mode = 3),
-            code::BLENDING_MODE_NOT_SUPPORTED,
+            edited(|m| {
+                m.blending_mode = 3;
+                m.blending_parameter = [-1.0, 0.0];
+            }),
+            code::INVALID_BLENDING_PARAMETER,
         ),
         (edited(|m| m.blending_mode = 7), code::INVALID_BLENDING_MODE),
         (edited(|m| m.tool = 16), code::INVALID_TOOL_NO),

@@ -115,7 +115,7 @@ fn taught_pose_is_reached_in_its_configuration() {
             |m| m.deceleration_rate = Some(100.01),
             code::INVALID_DECELERATION_RATE,
         ),
-        (|m| m.blending_mode = 3, code::BLENDING_MODE_NOT_SUPPORTED),
+        (|m| m.blending_mode = 5, code::INVALID_BLENDING_MODE),
         (|m| m.config_mode[0] = 9, code::INVALID_CONFIG_MODE_SHOULDER),
         (|m| m.config_mode[1] = 9, code::INVALID_CONFIG_MODE_ELBOW),
         (|m| m.config_mode[2] = 9, code::INVALID_CONFIG_MODE_WRIST),

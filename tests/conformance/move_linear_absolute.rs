@@ -3,15 +3,15 @@
 
 use std::time::Duration;
 
+use plc_client::Request;
 use plc_client::request::{FrameData, ToolData};
-use plc_client::response::ActualPosition;
-use plc_client::{CyclicSelection, EngineOptions, Request};
 use shared_types::srci::message::{code, execution_mode, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
-use shared_types::srci::tables::{move_linear_absolute as mla, read_actual_position as rap};
+use shared_types::srci::tables::move_linear_absolute as mla;
 
+use super::move_requests::{initialized_with_cyclic_tcp, tcp};
 use crate::common::{
-    Controller, Plc, actual_joints, expect_done, expect_error, initialize, max_deviation,
+    Controller, actual_joints, expect_done, expect_error, initialize, max_deviation,
     reset_and_enable,
 };
 
@@ -62,27 +62,9 @@ fn distance_from_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
     d.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
-/// The TCP of `tool` in `frame`, read back.
-fn tcp(plc: &mut Plc, tool: u8, frame: u8) -> [f64; 6] {
-    let s = expect_done(
-        plc,
-        &Request::ReadActualPosition { tool, frame },
-        rap::response::LEN,
-    );
-    ActualPosition::decode(&s.response).cartesian
-}
-
 #[test]
 fn the_tcp_moves_on_a_straight_line_to_a_target_in_a_user_frame() {
-    let c = Controller::start("mla");
-    let mut plc = c.client_with(EngineOptions {
-        cyclic_position: CyclicSelection {
-            cartesian: true,
-            joints: false,
-        },
-        ..EngineOptions::default()
-    });
-    initialize(&mut plc);
+    let (_c, mut plc) = initialized_with_cyclic_tcp("mla");
     assert!(
         plc.task()
             .robot_data()

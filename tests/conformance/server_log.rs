@@ -7,7 +7,7 @@ use plc_client::Request;
 use shared_types::srci::message::{code, execution_mode, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
 use shared_types::srci::tables::{
-    create_server_log as csl, exchange_configuration as xc, move_circular_absolute as mca,
+    create_server_log as csl, exchange_configuration as xc, move_depart_linear as mdl,
     read_server_log as rsl,
 };
 
@@ -45,9 +45,9 @@ fn a_server_log_is_created_counted_and_read_line_by_line() {
     expect_error(
         &mut plc,
         &Request::Raw {
-            command_type: mca::TYPE,
+            command_type: mdl::TYPE,
             execution_mode: 0,
-            payload: vec![0; mca::request::LEN - 4],
+            payload: vec![0; mdl::request::LEN - 4],
         },
         code::NOT_IMPLEMENTED,
     );

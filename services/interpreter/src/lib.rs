@@ -3,9 +3,11 @@
 //! wrapped by a small process loop ([`service`]).
 
 pub mod acr;
+pub mod arm;
 pub mod cartesian_jog;
 pub mod commands;
 pub mod cyclic;
+pub mod displacement;
 pub mod handover;
 pub mod messages;
 pub mod motion_link;

@@ -7,7 +7,7 @@
 //! in [`Effects`]; what happens outside reaches it through `on_motion_status` and
 //! `on_servo_feedback`.
 
-use shared_types::config::JointLimitsRad;
+use shared_types::config::{JointLimitsRad, KinematicsConfig};
 use shared_types::ipc::{
     DriveState, LinkEvent, MotionCommand, MotionCommandKind, MotionSequence, MotionStatus,
     ServoControl, ServoFeedback,
@@ -21,6 +21,7 @@ use shared_types::srci::telegram::{
 };
 
 use crate::acr::{Acr, FragmentOutcome, MESSAGE_CAPACITY};
+use crate::arm::ArmModel;
 use crate::commands::LiveCommand;
 use crate::cyclic::{CyclicLayout, CyclicPosition};
 use crate::handover::{self, Snapshot};
@@ -52,6 +53,8 @@ pub struct Settings {
     pub cycle_time_ms: u16,
     /// Time EnableRobot may take before it ends with an error.
     pub enable_timeout_ms: u64,
+    /// The arm's Denavit-Hartenberg chain (Cartesian targets of joint positions).
+    pub kinematics: KinematicsConfig,
 }
 
 impl Settings {
@@ -73,6 +76,7 @@ impl Settings {
             // At least 1 ms; config keeps the period at or below 8 ms.
             cycle_time_ms: m.servo.period_us.div_ceil(1000).max(1) as u16,
             enable_timeout_ms: m.servo.power_on_delay_ms + m.servo.enable_delay_ms + 5_000,
+            kinematics: config.robot.kinematics.clone(),
         }
     }
 }
@@ -177,6 +181,8 @@ pub struct Server {
     pub(crate) error_pending: bool,
     /// Tools, frames, loads, dynamics and SW limits (persisted by the service shell).
     pub user_data: UserData,
+    /// The arm's kinematics, for moves to joint targets on a TCP line.
+    pub(crate) arm: ArmModel,
     last_drive_fault: u16,
     last_planner_error: u16,
     /// The session lost its PLC (link or lifesign) with the primary sequence held and the
@@ -218,6 +224,7 @@ impl Server {
             override_percent: settings.initial_override_percent,
             error_pending: false,
             user_data,
+            arm: ArmModel::new(&settings.kinematics),
             last_drive_fault: 0,
             last_planner_error: 0,
             suspended: false,

@@ -1,7 +1,8 @@
 //! State-machine and command tests of the server core, driven by byte telegrams.
 
 use shared_types::ipc::{
-    DriveState, JOB_EVENTS, JobEvent, MotionCommand, MotionCommandKind, MotionStatus, ServoFeedback,
+    DriveState, JOB_EVENTS, JobEvent, MotionCommand, MotionCommandKind, MotionSequence,
+    MotionStatus, ServoFeedback, TargetReference,
 };
 use shared_types::srci::message::{CommandHeader, ResponseHeader, code, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
@@ -221,6 +222,20 @@ fn default_rates(w: &mut PayloadWriter, rates: [shared_types::srci::payload::Fie
     }
 }
 
+/// A move request on the primary sequence with its `rates` at default; `edit` sets the rest.
+fn move_message(
+    command_type: u16,
+    len: usize,
+    rates: [shared_types::srci::payload::Field; 4],
+    edit: impl FnOnce(&mut PayloadWriter),
+) -> Vec<u8> {
+    let mut msg = request(command_type, 0, len);
+    let mut w = PayloadWriter::new(&mut msg);
+    default_rates(&mut w, rates);
+    edit(&mut w);
+    msg
+}
+
 fn feedback(state: DriveState) -> ServoFeedback {
     ServoFeedback::at_rest(1, [0.0, 1.57, 1.57, 1.57, -1.57, 0.0], state, 1_000_000)
 }
@@ -346,9 +361,9 @@ fn unsupported_command_is_answered_8f11_once_per_sequence() {
     let mut plc = Plc::new(256);
     plc.initialize(&mut server);
     let msg = request(
-        t::move_circular_absolute::TYPE,
+        t::move_depart_linear::TYPE,
         0,
-        t::move_circular_absolute::request::LEN,
+        t::move_depart_linear::request::LEN,
     );
     plc.command(&mut server, 1, NEW, &msg);
     let responses: Vec<_> = plc.responses.iter().filter(|(id, _)| *id == 1).collect();
@@ -388,7 +403,7 @@ fn read_robot_data_is_fragmented_in_small_telegrams_and_tells_the_truth() {
     {
         assert!(supported::announces(&map, ty), "type {ty} announced");
     }
-    assert!(!supported::announces(&map, t::move_circular_absolute::TYPE));
+    assert!(!supported::announces(&map, t::move_depart_linear::TYPE));
     let (byte, bit) = supported::CYCLIC_POSITION;
     assert_ne!(
         map[usize::from(byte)] & (1 << bit),
@@ -528,9 +543,9 @@ fn read_messages_delivers_and_takes_acknowledgements() {
         2,
         NEW,
         &request(
-            t::move_circular_absolute::TYPE,
+            t::move_depart_linear::TYPE,
             0,
-            t::move_circular_absolute::request::LEN,
+            t::move_depart_linear::request::LEN,
         ),
     );
     plc.idle(&mut server);
@@ -591,9 +606,9 @@ fn steady_rounds(server: &mut Server, plc: &mut Plc, fx: &mut Effects, events: &
             4,
             NEW,
             &request(
-                t::move_circular_absolute::TYPE,
+                t::move_depart_linear::TYPE,
                 0,
-                t::move_circular_absolute::request::LEN,
+                t::move_depart_linear::request::LEN,
             ),
         );
         // The newest move (unacknowledged older commands are re-sent after it).
@@ -842,9 +857,9 @@ fn server_logs_are_created_and_read_line_by_line() {
     let (mut server, mut plc, _fx) = session(DriveState::Holding);
     // Something to log: an unsupported command.
     let unsupported = request(
-        t::move_circular_absolute::TYPE,
+        t::move_depart_linear::TYPE,
         0,
-        t::move_circular_absolute::request::LEN,
+        t::move_depart_linear::request::LEN,
     );
     plc.command(&mut server, 1, NEW, &unsupported);
     plc.command(
@@ -999,25 +1014,20 @@ fn sync_reaction_3_interrupts_the_primary_sequence_after_the_delay() {
 fn a_linear_move_reports_the_distance_left_on_its_line() {
     use t::move_linear_absolute as mla;
     let (mut server, mut plc, mut fx) = session(DriveState::Holding);
-    let mut msg = request(mla::TYPE, 0, mla::request::LEN);
-    {
-        let mut w = PayloadWriter::new(&mut msg);
-        default_rates(
-            &mut w,
-            [
-                mla::request::VELOCITY_RATE,
-                mla::request::ACCELERATION_RATE,
-                mla::request::DECELERATION_RATE,
-                mla::request::JERK_RATE,
-            ],
-        );
+    let rates = [
+        mla::request::VELOCITY_RATE,
+        mla::request::ACCELERATION_RATE,
+        mla::request::DECELERATION_RATE,
+        mla::request::JERK_RATE,
+    ];
+    let msg = move_message(mla::TYPE, mla::request::LEN, rates, |w| {
         for (f, v) in mla::request::POSITION_X_RZ
             .into_iter()
             .zip([400.0, 0.0, 300.0, 0.0, 0.0, 0.0])
         {
             w.set_f32(f, v);
         }
-    }
+    });
     plc.command(&mut server, 6, NEW, &msg);
     let mv = *plc
         .motion
@@ -1046,8 +1056,14 @@ fn a_linear_move_reports_the_distance_left_on_its_line() {
     assert!((remaining - 173.205).abs() < 0.01, "{remaining}");
 
     // GroupStop reports that it aborted a move of the primary sequence.
+    assert_eq!(group_stop(&mut server, &mut plc, &mut fx, mv.job, 3), 1);
+}
+
+/// A GroupStop (CmdID 7) that aborts `job`, planner events from number `event`; returns its
+/// AbortedSequence.
+fn group_stop(server: &mut Server, plc: &mut Plc, fx: &mut Effects, job: u32, event: u64) -> i8 {
     plc.command(
-        &mut server,
+        server,
         7,
         NEW,
         &request(t::group_stop::TYPE, 2, t::group_stop::request::LEN),
@@ -1059,23 +1075,13 @@ fn a_linear_move_reports_the_distance_left_on_its_line() {
         .unwrap()
         .job;
     let events = [
-        (3, mv.job, state::ABORTED, code::ABORTED_BY_GROUP_STOP),
-        (4, stop, state::DONE, 0),
+        (event, job, state::ABORTED, code::ABORTED_BY_GROUP_STOP),
+        (event + 1, stop, state::DONE, 0),
     ];
-    server.on_motion_status(plc.now(), &status(5, &events), &mut fx);
-    plc.idle(&mut server);
-    let body = plc
-        .responses
-        .iter()
-        .rev()
-        .find(|(id, _)| *id == 7)
-        .unwrap()
-        .1
-        .clone();
-    assert_eq!(
-        PayloadReader::new(&body).i8(t::group_stop::response::ABORTED_SEQUENCE),
-        1
-    );
+    server.on_motion_status(plc.now(), &status(5, &events), fx);
+    plc.idle(server);
+    let (_, body) = plc.responses.iter().rev().find(|(id, _)| *id == 7).unwrap();
+    PayloadReader::new(body).i8(t::group_stop::response::ABORTED_SEQUENCE)
 }
 
 fn set_sequence(target: u8) -> Vec<u8> {
@@ -1509,4 +1515,74 @@ fn a_continuous_frame_jog_halves_its_step_where_the_planner_finds_no_way() {
         state::ACTIVE,
         "the jog goes on"
     );
+}
+
+#[test]
+fn a_wait_reports_its_elapsed_time_and_counts_as_a_move_for_group_stop() {
+    use t::wait_time as wt;
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    let mut msg = request(wt::TYPE, 0, wt::request::LEN);
+    PayloadWriter::new(&mut msg).set_u32(wt::request::TIME, 2_000);
+    plc.command(&mut server, 6, NEW, &msg);
+    let wait = *plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::Wait as u8)
+        .expect("handed to the planner");
+    assert_eq!(wait.duration_s, 2.0);
+    assert_eq!(wait.sequence, MotionSequence::Primary as u8);
+    // Half-way through the wait, after the first ACTIVE response (progress is sent at most
+    // every 100 ms).
+    let mut s = status(5, &[(1, wait.job, state::ACTIVE, 0)]);
+    s.active_job = wait.job;
+    server.on_motion_status(plc.now(), &s, &mut fx);
+    plc.idle(&mut server);
+    plc.now += 200;
+    s.active_progress = 50.0;
+    server.on_motion_status(plc.now(), &s, &mut fx);
+    plc.idle(&mut server);
+    let elapsed = |plc: &Plc| {
+        let (_, body) = plc.responses.iter().rev().find(|(id, _)| *id == 6).unwrap();
+        PayloadReader::new(body).u32(wt::response::ELAPSED_TIME)
+    };
+    assert_eq!(elapsed(&plc), 1_000);
+    assert_eq!(group_stop(&mut server, &mut plc, &mut fx, wait.job, 2), 1);
+}
+
+#[test]
+fn a_relative_line_has_no_remaining_distance_until_it_ends() {
+    use t::move_linear_relative as mlr;
+    let (mut server, mut plc, mut fx) = session(DriveState::Holding);
+    let rates = [
+        mlr::request::VELOCITY_RATE,
+        mlr::request::ACCELERATION_RATE,
+        mlr::request::DECELERATION_RATE,
+        mlr::request::JERK_RATE,
+    ];
+    let msg = move_message(mlr::TYPE, mlr::request::LEN, rates, |w| {
+        w.set_f32(mlr::request::DISTANCE_Z, 50.0)
+    });
+    plc.command(&mut server, 6, NEW, &msg);
+    let mv = *plc
+        .motion
+        .iter()
+        .find(|c| c.kind == MotionCommandKind::MoveLinear as u8)
+        .expect("handed to the planner");
+    assert_eq!(mv.target_reference, TargetReference::RelativeInTool as u8);
+    let remaining = |plc: &Plc| {
+        let (_, body) = plc.responses.iter().rev().find(|(id, _)| *id == 6).unwrap();
+        let r = PayloadReader::new(body);
+        (
+            r.u8(mlr::response::STATE),
+            r.f32(mlr::response::REMAINING_DISTANCE),
+        )
+    };
+    let events = [(1, mv.job, state::ACTIVE, 0)];
+    server.on_motion_status(plc.now(), &status(5, &events), &mut fx);
+    plc.idle(&mut server);
+    assert_eq!(remaining(&plc), (state::ACTIVE, -1.0));
+    let events = [(2, mv.job, state::DONE, 0)];
+    server.on_motion_status(plc.now(), &status(5, &events), &mut fx);
+    plc.idle(&mut server);
+    assert_eq!(remaining(&plc), (state::DONE, 0.0));
 }

@@ -7,7 +7,8 @@
 //! the configured length and a consistent lifesign, a defined TelegramState and well-formed
 //! sequences and responses, and that every new `MoveAxes` command for the planner stems from a
 //! complete MoveAxesAbsolute message of the stream with a valid ExecutionMode, six finite
-//! joints and rates within 0..=100 % (or the default): garbage never moves the arm.
+//! joints and rates within 0..=100 % (or the default), or from a MoveAxesRelative,
+//! MoveDirectRelative or MoveDirectOffset on the primary sequence: garbage never moves the arm.
 //!
 //! The normal test suite runs a bounded number of cases per property. A long fuzzing run sets
 //! `PROPTEST_CASES` (applied to every property):
@@ -37,7 +38,8 @@ use shared_types::ipc::{
 use shared_types::srci::message::{CommandHeader, ResponseHeader, execution_mode, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
 use shared_types::srci::tables::{
-    PAYLOAD_LENGTHS, group_jog as gj, move_axes_absolute as maa, move_direct_absolute as mda,
+    self as t, PAYLOAD_LENGTHS, group_jog as gj, move_axes_absolute as maa,
+    move_direct_absolute as mda,
 };
 use shared_types::srci::telegram::{
     Control, FRAGMENT_HEADER_LEN, FragmentAction, FragmentHeader, MAX_TELEGRAM_LEN,
@@ -119,6 +121,30 @@ impl MoveRequest {
         Self::from_move_axes(msg)
             .or_else(|| Self::from_jog(msg))
             .or_else(|| Self::from_move_direct(msg))
+            .or_else(|| Self::from_extended_move(msg))
+    }
+
+    /// An Extended move on the primary sequence that becomes a joint move: MoveAxesRelative
+    /// (its target depends on where the move starts) and MoveDirectRelative/Offset (inverse
+    /// kinematics); their checks are the unit tests' business, any such request may ask.
+    fn from_extended_move(msg: &[u8]) -> Option<Self> {
+        let h = CommandHeader::decode(msg);
+        let kind = match h.command_type {
+            t::move_axes_relative::TYPE => MotionCommandKind::MoveAxes,
+            t::move_direct_relative::TYPE | t::move_direct_offset::TYPE => {
+                MotionCommandKind::MoveDirect
+            }
+            _ => return None,
+        };
+        let primary = matches!(
+            h.execution_mode,
+            execution_mode::SEQUENCE_PRIMARY | execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
+        );
+        primary.then_some(Self {
+            kind,
+            joints_rad: None,
+            aborting: h.execution_mode == execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY,
+        })
     }
 
     /// A complete MoveDirectAbsolute with mode 0 or 1, a finite pose and valid rates (the

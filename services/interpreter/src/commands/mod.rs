@@ -1,13 +1,21 @@
 //! Command semantics: dispatch of complete command messages, the commands that live beyond
 //! one telegram (Enable-type commands and motion jobs), and the responses they send.
 
+mod blending;
+mod circular;
 mod jog;
+mod joint_line;
 mod motion;
+mod offset;
+mod relative;
 mod robot;
 mod sequence;
 mod server_log;
 mod session;
+#[cfg(test)]
+mod test_support;
 mod user_data;
+mod wait;
 
 use shared_types::srci::message::{
     CommandHeader, ResponseHeader, code, execution_mode, severity, state,
@@ -22,7 +30,7 @@ use crate::server::{Effects, Now, Server};
 
 /// Command types this interpreter implements; RCSupportedFunctions announces exactly these.
 /// ReadActualPositionCyclic has no command type and is not offered yet.
-pub const IMPLEMENTED: [u16; 30] = [
+pub const IMPLEMENTED: [u16; 39] = [
     t::read_robot_data::TYPE,
     t::exchange_configuration::TYPE,
     t::read_messages::TYPE,
@@ -32,6 +40,15 @@ pub const IMPLEMENTED: [u16; 30] = [
     t::move_axes_absolute::TYPE,
     t::move_direct_absolute::TYPE,
     t::move_linear_absolute::TYPE,
+    t::move_axes_relative::TYPE,
+    t::move_direct_relative::TYPE,
+    t::move_linear_relative::TYPE,
+    t::move_linear_absolute_j::TYPE,
+    t::move_circular_absolute::TYPE,
+    t::move_circular_relative::TYPE,
+    t::move_direct_offset::TYPE,
+    t::move_linear_offset::TYPE,
+    t::wait_time::TYPE,
     t::return_to_primary::TYPE,
     t::read_actual_position::TYPE,
     t::change_speed_override::TYPE,
@@ -117,6 +134,9 @@ pub enum LiveKind {
         line: Option<LineTarget>,
         /// A move of the secondary sequence (ExecutionMode 7/8, ReturnToPrimary).
         secondary: bool,
+        /// WaitTime: how long it waits (ms), for its ElapsedTime.
+        #[serde(default)]
+        wait_ms: u32,
     },
 }
 
@@ -175,7 +195,17 @@ pub fn describe(code: u16) -> &'static str {
         code::INVALID_ORI_MODE => "OriMode is not a defined value (1..4)",
         code::ORI_MODE_NOT_SUPPORTED => "OriMode not supported for this move",
         code::INVALID_BLENDING_MODE => "BlendingMode is not a defined value",
-        code::BLENDING_MODE_NOT_SUPPORTED => "BlendingMode not supported yet (exact stop only)",
+        code::INVALID_BLENDING_PARAMETER => {
+            "BlendingParameter negative, not a number, or a percentage above 100"
+        }
+        code::INVALID_CIRC_PLANE => "CircPlane is not a defined value for this CircMode",
+        code::INVALID_CIRC_MODE => "CircMode outside of the allowed range 0..3",
+        code::TOLERANCE_ONLY_CENTER => {
+            "Tolerance must be a number >= 0 and is only used with CircMode 1 (CENTER)"
+        }
+        code::ANGLE_ONLY_CENTER_WITH_ANGLE => {
+            "Angle must be a number and is only used with CircMode 2 (CENTER_WITH_ANGLE)"
+        }
         code::INVALID_JOINT_POSITION => "joint position is not a finite number",
         code::INVALID_POSITION => "Cartesian position is not a finite number",
         code::TARGET_UNREACHABLE => "target unreachable in the requested configuration",
@@ -206,7 +236,7 @@ pub fn describe(code: u16) -> &'static str {
             "ReturnMode 1 (end position of the interrupted move) is not supported"
         }
         code::MOTION_ERROR => "motion error: the move was stopped",
-        code::INVALID_MODE => "MessageLevel or LogLevel is not a defined value",
+        code::INVALID_MODE => "MessageLevel, LogLevel or ReferenceType is not a defined value",
         code::INVALID_SYNC_REACTION => "SyncReaction is not a defined value (0..3)",
         code::NOT_SYNCHRONIZED => {
             "user data not synchronized and SyncReaction denies enabling the robot"
@@ -246,9 +276,12 @@ impl Server {
         }
         self.live.retain(|l| l.cmd_id != cmd_id);
         let mode_ok = match h.command_type {
-            t::move_axes_absolute::TYPE
-            | t::move_direct_absolute::TYPE
-            | t::move_linear_absolute::TYPE => matches!(
+            // A wait belongs to a sequence; aborting the others with it has no use.
+            t::wait_time::TYPE => matches!(
+                h.execution_mode,
+                execution_mode::SEQUENCE_PRIMARY | execution_mode::SEQUENCE_SECONDARY
+            ),
+            ty if motion::is_move(ty) => matches!(
                 h.execution_mode,
                 execution_mode::SEQUENCE_PRIMARY
                     | execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
@@ -308,9 +341,7 @@ impl Server {
             t::set_sequence::TYPE => self.set_sequence(cmd_id, h, msg, now, fx),
             t::return_to_primary::TYPE => self.return_to_primary(cmd_id, h, msg, now, fx),
             t::read_actual_position::TYPE => self.read_actual_position(cmd_id, h, msg, now),
-            t::move_axes_absolute::TYPE
-            | t::move_direct_absolute::TYPE
-            | t::move_linear_absolute::TYPE => self.move_command(cmd_id, h, msg, now, fx),
+            ty if motion::is_move(ty) => self.move_command(cmd_id, h, msg, now, fx),
             t::change_speed_override::TYPE => self.change_speed_override(cmd_id, h, msg, now, fx),
             t::group_stop::TYPE => self.group_motion(cmd_id, h, MotionCommandKind::Stop, now, fx),
             t::group_interrupt::TYPE => {

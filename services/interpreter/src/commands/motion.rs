@@ -1,20 +1,45 @@
-//! Commands executed by the planner: MoveAxesAbsolute, ChangeSpeedOverride (and GroupReset's
-//! planner part), with their job updates and progress.
+//! Commands executed by the planner: the moves (MoveAxesAbsolute, MoveDirectAbsolute,
+//! MoveLinearAbsolute here, the Extended moves and WaitTime in their own modules),
+//! ChangeSpeedOverride (and GroupReset's planner part), with their job updates and progress.
 
-use shared_types::ipc::{MotionCommand, MotionCommandKind, MotionSequence};
+use shared_types::ipc::{MotionCommand, MotionCommandKind, MotionSequence, TargetReference};
 use shared_types::srci::message::{CommandHeader, Percent, code, execution_mode, state};
 use shared_types::srci::payload::{Field, PayloadReader, PayloadWriter};
 use shared_types::srci::tables::{
     change_speed_override as cso, group_reset as gr, group_stop as gs, move_axes_absolute as maa,
-    move_direct_absolute as mda, move_linear_absolute as mla, return_to_primary as rtp,
+    move_axes_relative as mar, move_circular_absolute as mca, move_circular_relative as mcr,
+    move_direct_absolute as mda, move_direct_offset as mdo, move_direct_relative as mdr,
+    move_linear_absolute as mla, move_linear_absolute_j as mlaj, move_linear_offset as mlo,
+    move_linear_relative as mlr, return_to_primary as rtp, wait_time as wt,
 };
 
 use super::sequence::write_primary_pos;
-use super::{LineTarget, LiveKind};
+use super::{LineTarget, LiveKind, blending, circular, joint_line, offset, relative, wait};
 use crate::motion_link::JobUpdate;
 use crate::server::{Effects, Now, Server};
-use crate::tcp_pose;
+use crate::tcp_pose::{self, WirePose};
 use crate::user_data::UserData;
+
+/// Whether `command_type` queues a move (or a wait) in a motion sequence: the commands
+/// [`Server::move_command`] answers.
+pub fn is_move(command_type: u16) -> bool {
+    matches!(command_type, maa::TYPE | mar::TYPE | wt::TYPE)
+        || WITH_REMAINING_DISTANCE.contains(&command_type)
+}
+
+/// The moves whose response carries Progress and RemainingDistance, in the layout of
+/// MoveDirectAbsolute's.
+const WITH_REMAINING_DISTANCE: [u16; 9] = [
+    mda::TYPE,
+    mla::TYPE,
+    mca::TYPE,
+    mcr::TYPE,
+    mdr::TYPE,
+    mlaj::TYPE,
+    mlr::TYPE,
+    mdo::TYPE,
+    mlo::TYPE,
+];
 
 /// "0 %: use internal minimal velocity".
 const MIN_RATE: f64 = 1.0;
@@ -32,19 +57,20 @@ fn rate(wire: u16, default: f64, invalid: u16) -> Result<f64, u16> {
 }
 
 /// Where the rates and Time of a move sit in its request table.
-struct DynamicsLayout {
-    velocity: Field,
-    acceleration: Field,
-    deceleration: Field,
-    jerk: Field,
-    time: Field,
+pub(super) struct DynamicsLayout {
+    pub(super) velocity: Field,
+    pub(super) acceleration: Field,
+    pub(super) deceleration: Field,
+    pub(super) jerk: Field,
+    pub(super) time: Field,
 }
 
 /// Where the parameters every move command shares sit in its request table.
-struct MoveLayout {
-    dynamics: DynamicsLayout,
-    tool: Field,
-    blending_mode: Field,
+pub(super) struct MoveLayout {
+    pub(super) dynamics: DynamicsLayout,
+    pub(super) tool: Field,
+    pub(super) blending_mode: Field,
+    pub(super) blending_parameter: Field,
 }
 
 const MOVE_AXES: MoveLayout = MoveLayout {
@@ -57,19 +83,20 @@ const MOVE_AXES: MoveLayout = MoveLayout {
     },
     tool: maa::request::TOOL_NO,
     blending_mode: maa::request::BLENDING_MODE,
+    blending_parameter: maa::request::BLENDING_PARAMETER,
 };
 
 /// Where the Cartesian target sits in the request table of a Cartesian move.
-struct CartesianLayout {
-    common: MoveLayout,
-    frame: Field,
-    position: [Field; 6],
-    shoulder: Field,
-    elbow: Field,
-    wrist: Field,
-    turn_number: Field,
-    config_mode: Field,
-    turn_mode: Field,
+pub(super) struct CartesianLayout {
+    pub(super) common: MoveLayout,
+    pub(super) frame: Field,
+    pub(super) position: [Field; 6],
+    pub(super) shoulder: Field,
+    pub(super) elbow: Field,
+    pub(super) wrist: Field,
+    pub(super) turn_number: Field,
+    pub(super) config_mode: Field,
+    pub(super) turn_mode: Field,
 }
 
 const MOVE_DIRECT: CartesianLayout = CartesianLayout {
@@ -83,6 +110,7 @@ const MOVE_DIRECT: CartesianLayout = CartesianLayout {
         },
         tool: mda::request::TOOL_NO,
         blending_mode: mda::request::BLENDING_MODE,
+        blending_parameter: mda::request::BLENDING_PARAMETER,
     },
     frame: mda::request::FRAME_NO,
     position: mda::request::POSITION_X_RZ,
@@ -105,6 +133,7 @@ const MOVE_LINEAR: CartesianLayout = CartesianLayout {
         },
         tool: mla::request::TOOL_NO,
         blending_mode: mla::request::BLENDING_MODE,
+        blending_parameter: mla::request::BLENDING_PARAMETER,
     },
     frame: mla::request::FRAME_NO,
     position: mla::request::POSITION_X_RZ,
@@ -134,7 +163,7 @@ fn on_secondary(mode: u8) -> bool {
 
 /// A planner command of `kind` with the rates (those left at default from the default
 /// dynamics), the Time and the PLC's SW limits of the request.
-fn with_dynamics(
+pub(super) fn with_dynamics(
     r: &PayloadReader<'_>,
     layout: &DynamicsLayout,
     kind: MotionCommandKind,
@@ -167,7 +196,7 @@ fn with_dynamics(
 
 /// Checks what every move shares (rates, tool, blending, time, execution mode) and returns a
 /// planner command of `kind` with them, the tool's TCP included.
-fn decode_move(
+pub(super) fn decode_move(
     r: &PayloadReader<'_>,
     layout: &MoveLayout,
     h: CommandHeader,
@@ -176,22 +205,29 @@ fn decode_move(
 ) -> Result<MotionCommand, u16> {
     let mut c = with_dynamics(r, &layout.dynamics, kind, data)?;
     c.tool = tcp_pose::tool_offset(data, r.u8(layout.tool))?;
-    match r.u8(layout.blending_mode) {
-        0 => {}
-        2 | 3 | 4 | 10 | 11 | 12 => return Err(code::BLENDING_MODE_NOT_SUPPORTED),
-        _ => return Err(code::INVALID_BLENDING_MODE),
-    }
+    let parameter = layout.blending_parameter;
+    let b = blending::decode(
+        r.u8(layout.blending_mode),
+        [r.f32(parameter.element(0)), r.f32(parameter.element(1))],
+    )?;
+    c.blending_mode = b.mode;
+    c.blending_parameter = b.parameter;
     c.aborting = matches!(
         h.execution_mode,
         execution_mode::SEQUENCE_ABORT_OTHERS_PRIMARY
             | execution_mode::SEQUENCE_ABORT_OTHERS_SECONDARY
     );
-    c.sequence = if on_secondary(h.execution_mode) {
+    c.sequence = sequence_of(h.execution_mode) as u8;
+    Ok(c)
+}
+
+/// The sequence a move with ExecutionMode `mode` belongs to.
+pub(super) fn sequence_of(mode: u8) -> MotionSequence {
+    if on_secondary(mode) {
         MotionSequence::Secondary
     } else {
         MotionSequence::Primary
-    } as u8;
-    Ok(c)
+    }
 }
 
 /// The rates and Time of a ReturnToPrimary request as a planner command (kind and target
@@ -204,19 +240,21 @@ pub(crate) fn decode_return(r: &PayloadReader<'_>, data: &UserData) -> Result<Mo
 /// within the SW limits.
 fn decode_move_axes(msg: &[u8], h: CommandHeader, data: &UserData) -> Result<MotionCommand, u16> {
     let r = PayloadReader::new(msg);
-    let limits = data.sw_limits_rad();
     let mut c = decode_move(&r, &MOVE_AXES, h, MotionCommandKind::MoveAxes, data)?;
-    for (i, (q, f)) in c
-        .joints_rad
-        .iter_mut()
-        .zip(maa::request::JOINT_POSITION_J1_J6)
-        .enumerate()
-    {
-        let deg = r.f32(f);
-        if !deg.is_finite() {
-            return Err(code::INVALID_JOINT_POSITION);
-        }
-        *q = f64::from(deg).to_radians();
+    c.joints_rad = joint_target(&r, maa::request::JOINT_POSITION_J1_J6, data)?;
+    Ok(c)
+}
+
+/// The joint target in `fields` (degrees on the wire) in rad, within the SW limits.
+pub(super) fn joint_target(
+    r: &PayloadReader<'_>,
+    fields: [Field; 6],
+    data: &UserData,
+) -> Result<[f64; 6], u16> {
+    let limits = data.sw_limits_rad();
+    let mut joints = [0.0; 6];
+    for (i, (q, f)) in joints.iter_mut().zip(fields).enumerate() {
+        *q = f64::from(joint_value(r, f)?).to_radians();
         // Checked here against the SW limits the PLC may have narrowed; the planner checks
         // the mechanical limits again.
         if *q < limits.lower[i] {
@@ -226,7 +264,27 @@ fn decode_move_axes(msg: &[u8], h: CommandHeader, data: &UserData) -> Result<Mot
             return Err(code::SW_LIMIT_UPPER);
         }
     }
-    Ok(c)
+    Ok(joints)
+}
+
+/// A joint value (or joint distance) of a request, if it is a number.
+pub(super) fn joint_value(r: &PayloadReader<'_>, f: Field) -> Result<f32, u16> {
+    Some(r.f32(f))
+        .filter(|v| v.is_finite())
+        .ok_or(code::INVALID_JOINT_POSITION)
+}
+
+/// A Cartesian pose of a request (mm and degrees), if every value is a number.
+pub(super) fn wire_pose(r: &PayloadReader<'_>, fields: [Field; 6]) -> Result<WirePose, u16> {
+    let mut pose = [0.0; 6];
+    for (v, f) in pose.iter_mut().zip(fields) {
+        let wire = r.f32(f);
+        if !wire.is_finite() {
+            return Err(code::INVALID_POSITION);
+        }
+        *v = f64::from(wire);
+    }
+    Ok(pose)
 }
 
 /// Checks a MoveDirectAbsolute or MoveLinearAbsolute request and turns it into a planner
@@ -239,17 +297,26 @@ fn decode_cartesian_move(
     layout: &CartesianLayout,
     kind: MotionCommandKind,
 ) -> Result<MotionCommand, u16> {
+    let (mut c, target) = decode_cartesian(msg, h, data, layout, kind)?;
+    c.pose = tcp_pose::world_target(data, PayloadReader::new(msg).u8(layout.frame), target)?;
+    Ok(c)
+}
+
+/// Checks a Cartesian move's request: what every move shares, the configuration, turns and
+/// their modes; returns the planner command without its pose, and the pose of `layout`
+/// as the PLC sent it (mm and degrees), for the caller to place.
+pub(super) fn decode_cartesian(
+    msg: &[u8],
+    h: CommandHeader,
+    data: &UserData,
+    layout: &CartesianLayout,
+    kind: MotionCommandKind,
+) -> Result<(MotionCommand, WirePose), u16> {
     let r = PayloadReader::new(msg);
     let mut c = decode_move(&r, &layout.common, h, kind, data)?;
-    let mut target = [0.0; 6];
-    for (v, f) in target.iter_mut().zip(layout.position) {
-        let wire = r.f32(f);
-        if !wire.is_finite() {
-            return Err(code::INVALID_POSITION);
-        }
-        *v = f64::from(wire);
-    }
-    c.pose = tcp_pose::world_target(data, r.u8(layout.frame), target)?;
+    let target = wire_pose(&r, layout.position)?;
+    // The frame is checked here for every Cartesian move; its use is the caller's.
+    tcp_pose::world_frame(data, r.u8(layout.frame))?;
     c.arm_config = r.u8(layout.shoulder) | r.u8(layout.elbow) << 1 | r.u8(layout.wrist) << 2;
     c.turn_numbers = core::array::from_fn(|i| r.u8(layout.turn_number.element(i)));
     let modes = [
@@ -260,35 +327,58 @@ fn decode_cartesian_move(
     // undefined values with their codes.
     c.config_modes = [modes[0] & 0x0F, modes[0] >> 4, modes[1] & 0x0F];
     c.turn_mode = r.u8(layout.turn_mode);
-    Ok(c)
+    Ok((c, target))
 }
 
 /// Checks a MoveLinearAbsolute request: a Cartesian move with its OriMode (0 is taken as
 /// the standard, LINEAR_INTERPOLATED).
 fn decode_move_linear(msg: &[u8], h: CommandHeader, data: &UserData) -> Result<MotionCommand, u16> {
     let mut c = decode_cartesian_move(msg, h, data, &MOVE_LINEAR, MotionCommandKind::MoveLinear)?;
-    c.ori_mode = match PayloadReader::new(msg).u8(mla::request::ORI_MODE) {
-        m @ 0..=4 => m,
-        _ => return Err(code::INVALID_ORI_MODE),
-    };
+    c.ori_mode = ori_mode(msg, mla::request::ORI_MODE)?;
     Ok(c)
 }
 
-/// Progress (percent × 100) of a move response; MoveDirectAbsolute and MoveLinearAbsolute
-/// also carry RemainingDistance (mm): measured on the line for linear moves, "no valid
-/// value" (-1) for joint-interpolated ones until they reach the target (0).
+/// The OriMode of a request: 0 (taken as the standard, LINEAR_INTERPOLATED) to 4.
+pub(super) fn ori_mode(msg: &[u8], field: Field) -> Result<u8, u16> {
+    match PayloadReader::new(msg).u8(field) {
+        m @ 0..=4 => Ok(m),
+        _ => Err(code::INVALID_ORI_MODE),
+    }
+}
+
+/// Progress (percent × 100) of a move response; the moves with RemainingDistance (mm) carry
+/// it too: the path length left of a running line or arc, "no valid value" (-1) for the
+/// others until they reach the target (0). WaitTime reports its ElapsedTime (ms) of
+/// `wait_ms` instead.
 fn write_progress(
     w: &mut PayloadWriter<'_>,
     command_type: u16,
     progress: u16,
     remaining_mm: Option<f64>,
+    wait_ms: u32,
 ) {
-    // MoveLinearAbsolute answers in the layout of MoveDirectAbsolute.
-    const _: () = assert!(
-        mda::response::PROGRESS.offset == mla::response::PROGRESS.offset
-            && mda::response::REMAINING_DISTANCE.offset == mla::response::REMAINING_DISTANCE.offset
-            && mda::response::LEN == mla::response::LEN
-    );
+    // The Extended moves answer in the layout of MoveDirectAbsolute or MoveAxesAbsolute.
+    const _: () = {
+        let layouts = [
+            (mla::response::PROGRESS, mla::response::REMAINING_DISTANCE),
+            (mca::response::PROGRESS, mca::response::REMAINING_DISTANCE),
+            (mcr::response::PROGRESS, mcr::response::REMAINING_DISTANCE),
+            (mdr::response::PROGRESS, mdr::response::REMAINING_DISTANCE),
+            (mlaj::response::PROGRESS, mlaj::response::REMAINING_DISTANCE),
+            (mlr::response::PROGRESS, mlr::response::REMAINING_DISTANCE),
+            (mdo::response::PROGRESS, mdo::response::REMAINING_DISTANCE),
+            (mlo::response::PROGRESS, mlo::response::REMAINING_DISTANCE),
+        ];
+        let mut i = 0;
+        while i < layouts.len() {
+            assert!(
+                layouts[i].0.offset == mda::response::PROGRESS.offset
+                    && layouts[i].1.offset == mda::response::REMAINING_DISTANCE.offset
+            );
+            i += 1;
+        }
+        assert!(mar::response::PROGRESS.offset == maa::response::PROGRESS.offset);
+    };
     let remaining = match remaining_mm {
         _ if progress == 10_000 => 0.0,
         Some(mm) => mm as f32,
@@ -297,7 +387,11 @@ fn write_progress(
     if command_type == rtp::TYPE {
         w.set_u16(rtp::response::PROGRESS, progress);
         w.set_f32(rtp::response::REMAINING_DISTANCE, remaining);
-    } else if matches!(command_type, mda::TYPE | mla::TYPE) {
+    } else if command_type == wt::TYPE {
+        let elapsed = u64::from(wait_ms) * u64::from(progress.min(10_000)) / 10_000;
+        // At most `wait_ms`, so it fits.
+        w.set_u32(wt::response::ELAPSED_TIME, elapsed as u32);
+    } else if WITH_REMAINING_DISTANCE.contains(&command_type) {
         w.set_u16(mda::response::PROGRESS, progress);
         w.set_f32(mda::response::REMAINING_DISTANCE, remaining);
     } else {
@@ -306,8 +400,7 @@ fn write_progress(
 }
 
 impl Server {
-    /// MoveAxesAbsolute, MoveDirectAbsolute and MoveLinearAbsolute: checked, then handed to
-    /// the planner.
+    /// The moves and WaitTime: checked, then handed to the planner.
     pub(crate) fn move_command(
         &mut self,
         cmd_id: u16,
@@ -320,7 +413,8 @@ impl Server {
         let secondary = on_secondary(h.execution_mode);
         let checked = if self.error_pending {
             Err(code::DISABLED_DUE_TO_ERROR)
-        } else if !self.drives_enabled() {
+        } else if !self.drives_enabled() && h.command_type != wt::TYPE {
+            // A wait moves nothing: it may be queued with the drives off.
             Err(code::ROBOT_DISABLED)
         } else if secondary && !self.sequences.secondary_active() {
             Err(code::SECONDARY_NOT_ACTIVE)
@@ -332,26 +426,40 @@ impl Server {
                     decode_cartesian_move(msg, h, data, &MOVE_DIRECT, MotionCommandKind::MoveDirect)
                 }
                 mla::TYPE => decode_move_linear(msg, h, data),
+                mar::TYPE => relative::decode_axes(msg, h, data),
+                mdr::TYPE | mlr::TYPE => relative::decode_cartesian(msg, h, data),
+                mlaj::TYPE => joint_line::decode(msg, h, data, &self.arm),
+                mca::TYPE | mcr::TYPE => circular::decode(msg, h, data),
+                mdo::TYPE | mlo::TYPE => offset::decode(msg, h, data),
+                wt::TYPE => Ok(wait::decode(msg, h)),
                 _ => decode_move_axes(msg, h, data),
             }
         };
         match checked {
             Ok(mut command) => {
+                let wait = command.kind == MotionCommandKind::Wait as u8;
                 // StepMode: every primary move holds the sequence when it ends.
-                command.hold_after = !secondary && self.step_mode != 0;
+                command.hold_after = !secondary && !wait && self.step_mode != 0;
                 self.select_tool_and_frame(h.command_type, msg);
                 self.submit_job(cmd_id, h, command, now, fx);
-                if command.kind == MotionCommandKind::MoveLinear as u8
-                    && let Some(LiveKind::Job { line, .. }) = self
-                        .live
-                        .iter_mut()
-                        .find(|l| l.cmd_id == cmd_id)
-                        .map(|l| &mut l.kind)
+                // What its responses report beyond Progress: the time a wait takes, the
+                // end of a line whose target is known here.
+                let straight_to_target = command.kind == MotionCommandKind::MoveLinear as u8
+                    && command.target_reference == TargetReference::Absolute as u8;
+                if let Some(LiveKind::Job { wait_ms, line, .. }) = self
+                    .live
+                    .iter_mut()
+                    .find(|l| l.cmd_id == cmd_id)
+                    .map(|l| &mut l.kind)
                 {
-                    *line = Some(LineTarget {
-                        position: [command.pose[0], command.pose[1], command.pose[2]],
-                        tool: command.tool,
-                    });
+                    if wait {
+                        *wait_ms = wait::milliseconds(msg);
+                    } else if straight_to_target {
+                        *line = Some(LineTarget {
+                            position: [command.pose[0], command.pose[1], command.pose[2]],
+                            tool: command.tool,
+                        });
+                    }
                 }
             }
             Err(c) => self.respond(cmd_id, h, state::ERROR, c, now, |_| {}),
@@ -363,9 +471,19 @@ impl Server {
     fn select_tool_and_frame(&mut self, command_type: u16, msg: &[u8]) {
         let r = PayloadReader::new(msg);
         let (tool, frame) = match command_type {
-            mda::TYPE => (MOVE_DIRECT.common.tool, Some(MOVE_DIRECT.frame)),
-            mla::TYPE => (MOVE_LINEAR.common.tool, Some(MOVE_LINEAR.frame)),
-            _ => (MOVE_AXES.tool, None),
+            maa::TYPE => (maa::request::TOOL_NO, None),
+            mar::TYPE => (mar::request::TOOL_NO, None),
+            mlaj::TYPE => (mlaj::request::TOOL_NO, None),
+            mda::TYPE => (mda::request::TOOL_NO, Some(mda::request::FRAME_NO)),
+            mla::TYPE => (mla::request::TOOL_NO, Some(mla::request::FRAME_NO)),
+            mdr::TYPE => (mdr::request::TOOL_NO, Some(mdr::request::FRAME_NO)),
+            mlr::TYPE => (mlr::request::TOOL_NO, Some(mlr::request::FRAME_NO)),
+            mca::TYPE => (mca::request::TOOL_NO, Some(mca::request::FRAME_NO)),
+            mcr::TYPE => (mcr::request::TOOL_NO, Some(mcr::request::FRAME_NO)),
+            mdo::TYPE => (mdo::request::TOOL_NO, Some(mdo::request::FRAME_NO)),
+            mlo::TYPE => (mlo::request::TOOL_NO, Some(mlo::request::FRAME_NO)),
+            // WaitTime has neither.
+            _ => return,
         };
         let _ = self.user_data.select_tool(r.u8(tool));
         if let Some(frame) = frame {
@@ -467,10 +585,9 @@ impl Server {
                         progress: 0,
                         sent_ms: now.mono_ms,
                         aborts_moves: h.command_type == gs::TYPE
-                            && self.live.iter().any(|l| {
-                                matches!(l.command_type, maa::TYPE | mda::TYPE | mla::TYPE)
-                            }),
+                            && self.live.iter().any(|l| is_move(l.command_type)),
                         line: None,
+                        wait_ms: 0,
                         secondary: command.sequence == MotionSequence::Secondary as u8,
                     },
                 );
@@ -489,14 +606,15 @@ impl Server {
             return;
         }
         let h = self.live_header(i);
-        let (progress, aborts_moves, line) = match self.live[i].kind {
+        let (progress, aborts_moves, line, wait_ms) = match self.live[i].kind {
             LiveKind::Job {
                 progress,
                 aborts_moves,
                 line,
+                wait_ms,
                 ..
-            } => (progress, aborts_moves, line),
-            _ => (0, false, None),
+            } => (progress, aborts_moves, line, wait_ms),
+            _ => (0, false, None, 0),
         };
         let remaining = line
             .zip(self.status)
@@ -516,14 +634,14 @@ impl Server {
         self.respond(u.cmd_id, h, u.state, u.code, now, |b| {
             let mut w = PayloadWriter::new(b);
             match command_type {
-                maa::TYPE | mda::TYPE | mla::TYPE => {
-                    write_progress(&mut w, command_type, progress, remaining)
-                }
                 rtp::TYPE => {
-                    write_progress(&mut w, command_type, progress, remaining);
+                    write_progress(&mut w, command_type, progress, remaining, wait_ms);
                     write_primary_pos(&mut w, primary);
                 }
                 gs::TYPE => w.set_i8(gs::response::ABORTED_SEQUENCE, aborted_sequence),
+                ty if is_move(ty) => {
+                    write_progress(&mut w, command_type, progress, remaining, wait_ms)
+                }
                 _ => {}
             }
         });
@@ -548,11 +666,13 @@ impl Server {
             progress,
             sent_ms,
             line,
+            wait_ms,
             ..
         } = &mut self.live[i].kind
         else {
             return;
         };
+        let wait_ms = *wait_ms;
         // Clamped to 0..=100 %, so the product fits a u16.
         let now_progress = (status.active_progress.clamp(0.0, 100.0) * 100.0) as u16;
         if now_progress == *progress || now.mono_ms.saturating_sub(*sent_ms) < PROGRESS_INTERVAL_MS
@@ -562,15 +682,21 @@ impl Server {
         *progress = now_progress;
         *sent_ms = now.mono_ms;
         let line = *line;
-        let remaining = line.map(|l| l.remaining_mm(status.flange_pose));
+        // The planner knows the path length left of lines and arcs; the distance to a known
+        // line target serves a planner that does not report it.
+        let remaining = if status.active_remaining_m.is_finite() {
+            Some(status.active_remaining_m * 1000.0)
+        } else {
+            line.map(|l| l.remaining_mm(status.flange_pose))
+        };
         let primary = self.primary_pos_numbers();
         let cmd_id = self.live[i].cmd_id;
         let h = self.live_header(i);
         let command_type = self.live[i].command_type;
-        if matches!(command_type, maa::TYPE | mda::TYPE | mla::TYPE | rtp::TYPE) {
+        if command_type == rtp::TYPE || is_move(command_type) {
             self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
                 let mut w = PayloadWriter::new(b);
-                write_progress(&mut w, command_type, now_progress, remaining);
+                write_progress(&mut w, command_type, now_progress, remaining, wait_ms);
                 if command_type == rtp::TYPE {
                     write_primary_pos(&mut w, primary);
                 }
@@ -680,8 +806,11 @@ mod tests {
                 code::INVALID_DECELERATION_RATE,
             ),
             (
-                |w| w.set_u8(maa::request::BLENDING_MODE, 3),
-                code::BLENDING_MODE_NOT_SUPPORTED,
+                |w| {
+                    w.set_u8(maa::request::BLENDING_MODE, 3);
+                    w.set_f32(maa::request::BLENDING_PARAMETER.element(1), -1.0);
+                },
+                code::INVALID_BLENDING_PARAMETER,
             ),
             (
                 |w| w.set_u8(maa::request::BLENDING_MODE, 7),
@@ -699,6 +828,19 @@ mod tests {
         for (edit, expected) in cases {
             assert_eq!(decode(&request(edit), header(0)).unwrap_err(), expected);
         }
+    }
+
+    #[test]
+    fn blending_reaches_the_planner_in_si_units() {
+        let c = decode(
+            &request(|w| {
+                w.set_u8(maa::request::BLENDING_MODE, 11);
+                w.set_f32(maa::request::BLENDING_PARAMETER.element(0), 40.0);
+            }),
+            header(0),
+        )
+        .unwrap();
+        assert_eq!((c.blending_mode, c.blending_parameter), (11, [0.4, 0.0]));
     }
 
     #[test]
