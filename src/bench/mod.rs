@@ -5,7 +5,8 @@
 //! cycles, and the servo's tick lateness. Then, with the controller stopped, the interpreter
 //! core's processing time per telegram (in-process) and one iceoryx2 hop against a Unix
 //! domain socket. It prints one table and writes the percentile distributions to
-//! [`HGRM_FILE`] in the current directory. Nothing here judges the numbers.
+//! [`HGRM_FILE`] in the current directory; after the table, the PROFINET row (`profinet`:
+//! the period of our input frames on a veth pair, as root). Nothing here judges the numbers.
 
 mod hop;
 mod load;
@@ -13,6 +14,7 @@ pub mod motion;
 mod pipeline;
 mod private_controller;
 mod processing;
+mod profinet;
 mod rig;
 mod servo_watch;
 pub(crate) mod stats;
@@ -140,6 +142,7 @@ pub fn latency(config: &Config, cycles: u32) -> anyhow::Result<bool> {
     std::fs::write(&hgrm_path, hgrm(&results))
         .with_context(|| format!("cannot write {}", hgrm_path.display()))?;
     print!("{}", table::render(&title, &rows(&results), &notes));
+    print!("{}", profinet::report(&private.config));
 
     let stopped = stopped?;
     if stopped.killed || !stopped.status.success() {

@@ -143,10 +143,7 @@ fn timing_rows(t: &Timings) -> Vec<TimingRow> {
         measured("FK (Kinematics::flange)", false, &t.fk),
         measured("plan MoveAxes (JointMove::plan)", true, &t.plan_joint),
         measured("plan MoveLinear (LinearMove::plan)", true, &t.plan_linear),
-        TimingRow::NotAvailable {
-            label: "solver (clarabel QP)".into(),
-            why: "n/a (no QP solver yet)".into(),
-        },
+        measured("TOPP solves of one MoveLinear (clarabel)", true, &t.topp),
     ]
 }
 
@@ -157,6 +154,7 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
     let reserve = results.robot.reserve;
     let as_planned = |ours: &[Ours]| ours.iter().map(|o| o.as_planned_s).collect::<Vec<_>>();
     let no_reserve = |ours: &[Ours]| ours.iter().map(|o| o.no_reserve_s).collect::<Vec<_>>();
+    let second_order = |ours: &[Ours]| ours.iter().map(|o| o.second_order_s).collect::<Vec<_>>();
     let row = |label: String, ratio: &dyn Fn(&Reference) -> Option<report::RatioStats>| {
         let ratios = match &results.reference {
             Ok(r) => {
@@ -183,6 +181,10 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
         row("MoveLinear / toppra, without reserve".into(), &|r| {
             of(&no_reserve(&linear), &r.linear)
         }),
+        row(
+            "MoveLinear / toppra, without reserve and jerk bound".into(),
+            &|r| of(&second_order(&linear), &r.linear),
+        ),
         row("scale: ruckig / toppra on the MoveAxes".into(), &|r| {
             of(&r.joint, &r.joint_toppra)
         }),
@@ -300,18 +302,20 @@ mod tests {
             .map(|c| c.ours)
             .chain(p.linear.iter().map(|c| c.ours))
         {
-            for d in [ours.as_planned_s, ours.no_reserve_s] {
+            for d in [ours.as_planned_s, ours.no_reserve_s, ours.second_order_s] {
                 assert!(d.is_finite() && d > 0.0, "{ours:?}");
             }
         }
         let t = &results.timings;
         assert_eq!(t.ik_all.each.count(), 5 * timing::KINEMATICS_PER_PROBLEM);
         assert_eq!(t.plan_linear.each.count(), 2 * timing::PLAN_REPEATS);
+        assert_eq!(t.topp.each.count(), 2 * timing::PLAN_REPEATS);
         let text = render(&results, &options);
         for expected in [
             "IK, all 8 branches",
             "plan MoveLinear",
-            "n/a (no QP solver yet)",
+            "TOPP solves of one MoveLinear",
+            "without reserve and jerk bound",
             "MoveAxes / ruckig, as planned",
             "skipped: no reference environment",
             "bash bench/setup.sh",

@@ -15,6 +15,7 @@ use std::collections::BTreeMap;
 use planner::joint_move::{JointMove, MoveError, Plan};
 use planner::kinematics::{ArmGeometry, GeometryError, Kinematics};
 use planner::linear_move::{Arm, LinearError, LinearMove, LinearPlan, SAMPLES, TcpLimits};
+use planner::topp::{JerkBound, PathTimer};
 use shared_types::config::{Config, JointLimitsRad};
 use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind};
 use shared_types::pose;
@@ -80,7 +81,7 @@ impl Rng {
 }
 
 /// The robot as the planner sees it.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Robot {
     pub name: String,
     pub limits: JointLimitsRad,
@@ -89,6 +90,10 @@ pub struct Robot {
     pub geometry: ArmGeometry,
     /// Share of the acceleration the planner holds back for override changes.
     pub reserve: f64,
+    /// The planner's path timer, with the jerk bound.
+    pub timer: PathTimer,
+    /// A path timer on velocity and acceleration only: the constraints toppra has.
+    pub second_order: PathTimer,
 }
 
 impl Robot {
@@ -101,15 +106,24 @@ impl Robot {
             kinematics: Kinematics::new(&config.robot.kinematics),
             geometry: ArmGeometry::new(&config.robot.kinematics)?,
             reserve: config.main.planner.override_reserve,
+            timer: PathTimer::new(JerkBound::Joints),
+            second_order: PathTimer::new(JerkBound::Off),
         })
     }
 
+    /// The arm as the planner plans with it.
     pub fn arm(&self) -> Arm<'_> {
+        self.arm_timed_by(&self.timer)
+    }
+
+    /// The arm with the path timer `timer`.
+    pub fn arm_timed_by<'a>(&'a self, timer: &'a PathTimer) -> Arm<'a> {
         Arm {
             kinematics: &self.kinematics,
             geometry: &self.geometry,
             joints: &self.limits,
             tcp: &self.tcp,
+            timer,
         }
     }
 }
@@ -121,6 +135,9 @@ pub struct Ours {
     pub as_planned_s: f64,
     /// With no override reserve: the limits alone.
     pub no_reserve_s: f64,
+    /// Linear moves only: with no override reserve and no jerk bound, the constraints toppra
+    /// has (joint moves: as `no_reserve_s`).
+    pub second_order_s: f64,
 }
 
 /// One rest-to-rest joint move (MoveAxes at 100 % of every limit).
@@ -262,6 +279,7 @@ fn draw_joint_case(robot: &Robot, rng: &mut Rng) -> Result<Option<JointCase>, Pr
         ours: Ours {
             as_planned_s: planned.timing().profile.duration(),
             no_reserve_s: no_reserve.timing().profile.duration(),
+            second_order_s: no_reserve.timing().profile.duration(),
         },
     }))
 }
@@ -303,6 +321,16 @@ fn draw_linear_case(
     let no_reserve = LinearCase::plan(robot, start, &command, 0.0)
         .map_err(replan)?
         .ok_or_else(|| ProblemError::Replan("stationary without reserve".into()))?;
+    let second_order = LinearMove::plan(
+        start,
+        &command,
+        &robot.arm_timed_by(&robot.second_order),
+        0.0,
+    )
+    .map_err(replan)?;
+    let LinearPlan::Move(second_order) = second_order else {
+        return Err(ProblemError::Replan("stationary without jerk bound".into()));
+    };
     let mut path = Vec::with_capacity(SAMPLES + 1);
     let mut previous = start;
     for k in 0..=SAMPLES {
@@ -319,6 +347,7 @@ fn draw_linear_case(
         ours: Ours {
             as_planned_s: planned.timing().profile.duration(),
             no_reserve_s: no_reserve.timing().profile.duration(),
+            second_order_s: second_order.timing().profile.duration(),
         },
     }))
 }

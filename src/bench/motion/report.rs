@@ -87,8 +87,6 @@ pub enum TimingRow {
         summary: Option<Summary>,
         per_second: f64,
     },
-    /// Nothing to measure, and why.
-    NotAvailable { label: String, why: String },
 }
 
 /// A row of the optimality section: the ratios, or why there are none.
@@ -158,7 +156,6 @@ fn timing_line(row: &TimingRow) -> String {
                 ],
             )
         }
-        TimingRow::NotAvailable { label, why } => format!("{label:<LABEL$} {why}"),
     }
 }
 
@@ -273,24 +270,18 @@ mod tests {
 
     #[test]
     fn values_stand_under_their_headers() {
-        let timing = [
-            TimingRow::Measured {
-                label: "IK".into(),
-                micros: false,
-                summary: Some(Summary {
-                    count: 100,
-                    p50: 412,
-                    p99: 530,
-                    p99_9: 600,
-                    max: 9120,
-                }),
-                per_second: 2.3e6,
-            },
-            TimingRow::NotAvailable {
-                label: "solver".into(),
-                why: "n/a (no QP solver yet)".into(),
-            },
-        ];
+        let timing = [TimingRow::Measured {
+            label: "IK".into(),
+            micros: false,
+            summary: Some(Summary {
+                count: 100,
+                p50: 412,
+                p99: 530,
+                p99_9: 600,
+                max: 9120,
+            }),
+            per_second: 2.3e6,
+        }];
         let optimality = [
             OptimalityRow {
                 label: "joint".into(),
@@ -310,7 +301,6 @@ mod tests {
         let ik = lines.iter().find(|l| l.starts_with("IK")).unwrap();
         assert_eq!(end(ik, " 412"), end(lines[2], " p50"), "{text}");
         assert_eq!(end(ik, "2.30 M"), end(lines[2], "calls/s"), "{text}");
-        assert!(text.contains("solver") && text.contains("n/a (no QP solver yet)"));
         let joint = lines.iter().find(|l| l.starts_with("joint")).unwrap();
         let header = lines.iter().find(|l| l.starts_with("optimality")).unwrap();
         assert_eq!(end(joint, " 1.100"), end(header, " p50"), "{text}");

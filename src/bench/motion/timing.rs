@@ -5,6 +5,8 @@
 use std::hint::black_box;
 use std::time::Instant;
 
+use shared_types::ipc::{AXES, MotionCommand};
+
 use super::problems::{JointCase, LinearCase, Problems, Rng, Robot};
 use crate::bench::elapsed_ns;
 use crate::bench::stats::Distribution;
@@ -33,6 +35,8 @@ pub struct Timings {
     pub fk: CallTimes,
     pub plan_joint: CallTimes,
     pub plan_linear: CallTimes,
+    /// The TOPP solves of every linear plan (all passes), as clarabel measured them.
+    pub topp: CallTimes,
 }
 
 /// Times `call` on every input: each call alone, then all in one loop.
@@ -89,11 +93,34 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
     let plan_linear = time_calls(&linear_commands, |(start, command)| {
         LinearCase::plan(robot, *start, command, robot.reserve)
     });
+    let topp = topp_solves(robot, &linear_commands);
     Timings {
         ik_all,
         ik_one,
         fk,
         plan_joint,
         plan_linear,
+        topp,
+    }
+}
+
+/// The solver time of the planner's path timer for every linear plan of `commands`, from
+/// clarabel's own clock (all passes of one plan together); the rate is plans per second of
+/// solver time.
+fn topp_solves(robot: &Robot, commands: &[([f64; AXES], MotionCommand)]) -> CallTimes {
+    let mut samples = Vec::with_capacity(commands.len());
+    let mut total_s = 0.0;
+    for (start, command) in commands {
+        if LinearCase::plan(robot, *start, command, robot.reserve).is_err() {
+            continue;
+        }
+        if let Some(report) = robot.timer.last_report() {
+            samples.push((report.solve_s * 1e9).round() as u64);
+            total_s += report.solve_s;
+        }
+    }
+    CallTimes {
+        per_second: samples.len() as f64 / total_s.max(f64::MIN_POSITIVE),
+        each: Distribution::new(samples),
     }
 }
