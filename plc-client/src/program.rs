@@ -373,11 +373,16 @@ mod tests {
             .iter()
             .filter(|s| s.call == "MoveAxesAbsolute")
             .collect();
-        assert_eq!(moves.len(), 3);
+        assert_eq!(moves.len(), 4);
         assert_eq!(moves[0].wait, Wait::Active);
         assert_eq!(moves[0].expect, Expect::Aborted);
         assert_eq!(moves[0].expect_code, Some(0x6C06));
         assert!(matches!(&moves[1].request, Request::MoveAxesAbsolute(m) if m.aborting));
+        // The last two blend: the first is sent on and buffered while the other runs.
+        assert_eq!(moves[2].wait, Wait::Active);
+        assert!(
+            matches!(&moves[2].request, Request::MoveAxesAbsolute(m) if m.blending_mode == 11)
+        );
     }
 
     #[test]
