@@ -24,6 +24,7 @@ struct PlannerView {
     last_event: u64,
     override_fraction: f64,
     interrupted: bool,
+    blending: bool,
 }
 
 /// Builds a [`Recording`] from servo feedback, planner status and motion commands.
@@ -128,6 +129,7 @@ impl Capture {
             last_event: status.event_head,
             override_fraction: status.override_fraction,
             interrupted: status.sequence_paused,
+            blending: status.blending,
         });
         if let Some(tool) = self.tool_of(status.active_job) {
             self.tool_in_use = tool;
@@ -154,9 +156,10 @@ impl Capture {
         self.last_time_ns = Some(feedback.time_ns);
         self.feedback_samples += 1;
         let t_s = self.recording.seconds_at(feedback.time_ns);
-        let (override_fraction, interrupted) = self
-            .planner
-            .map_or((f64::NAN, false), |p| (p.override_fraction, p.interrupted));
+        let (override_fraction, interrupted, blending) =
+            self.planner.map_or((f64::NAN, false, false), |p| {
+                (p.override_fraction, p.interrupted, p.blending)
+            });
         let q: [f64; AXES] = feedback.q;
         let qd: [f64; AXES] = feedback.qd;
         self.recording.push_sample(Sample {
@@ -166,6 +169,7 @@ impl Capture {
             tcp_speed: self.tcp.speed(&q, &qd, &self.tool_in_use),
             override_fraction,
             interrupted,
+            blending,
         });
     }
 

@@ -26,6 +26,8 @@ pub struct Sample {
     pub override_fraction: f64,
     /// The primary sequence is interrupted (GroupInterrupt, a lost PLC).
     pub interrupted: bool,
+    /// Two moves are being blended.
+    pub blending: bool,
 }
 
 /// The job states a plot marks.
@@ -201,6 +203,7 @@ pub(crate) mod tests {
             tcp_speed: 0.0,
             override_fraction: 1.0,
             interrupted: false,
+            blending: false,
         }
     }
 

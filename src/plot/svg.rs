@@ -1,7 +1,7 @@
 //! The plot of a run as an SVG document: three panels over one time axis (joint positions,
 //! joint velocities with their limits, TCP speed with the override), job markers across all
-//! panels, shaded spans where the primary sequence was interrupted, a legend, a title and a
-//! caption. Pure: a [`Recording`] in, the document's text out.
+//! panels, shaded spans where the primary sequence was interrupted or two moves blend, a
+//! legend, a title and a caption. Pure: a [`Recording`] in, the document's text out.
 //!
 //! Traces are thinned to the drawing's resolution: per pixel column the first, lowest,
 //! highest and last point are kept, so that peaks survive and the file stays small however
@@ -147,7 +147,9 @@ fn draw(out: &mut String, recording: &Recording, labels: &PlotLabels<'_>) -> fmt
     )?;
     for panel in panels {
         frame(out, panel, &x)?;
-        interrupted_spans(out, panel, &x, samples)?;
+        for band in BANDS {
+            spans(out, panel, &x, samples, &band)?;
+        }
     }
     joint_traces(out, &positions, &x, samples, |s| s.q)?;
     for (joint, limit) in limits.iter().enumerate() {
@@ -251,35 +253,61 @@ fn frame(out: &mut String, panel: &Panel, x: &Scale) -> fmt::Result {
     writeln!(out, "</g>")
 }
 
-/// Light bands where the primary sequence was interrupted.
-fn interrupted_spans(
+/// A kind of time span shaded across the panels.
+struct Band {
+    /// Class of its rectangles and its legend text.
+    name: &'static str,
+    fill: &'static str,
+    /// Whether a sample lies in such a span.
+    holds: fn(&Sample) -> bool,
+}
+
+/// The spans shaded: where the primary sequence was interrupted, and where two moves blend.
+const BANDS: [Band; 2] = [
+    Band {
+        name: "interrupted",
+        fill: "#fbe3c8",
+        holds: |s| s.interrupted,
+    },
+    Band {
+        name: "blending",
+        fill: "#cfe3f7",
+        holds: |s| s.blending,
+    },
+];
+
+/// Light bands over `panel` where the samples are in `band`.
+fn spans(
     out: &mut String,
     panel: &Panel,
     x: &Scale,
     samples: &[Sample],
+    band: &Band,
 ) -> fmt::Result {
-    let mut band = |from: f64, to: f64| {
+    let mut shade = |from: f64, to: f64| {
         let (x0, x1) = (x.map(from), x.map(to));
         writeln!(
             out,
-            r##"<rect class="interrupted" x="{x0:.1}" y="{}" width="{:.1}" height="{PANEL_HEIGHT}" fill="#fbe3c8" fill-opacity="0.6"/>"##,
+            r##"<rect class="{}" x="{x0:.1}" y="{}" width="{:.1}" height="{PANEL_HEIGHT}" fill="{}" fill-opacity="0.6"/>"##,
+            band.name,
             panel.top,
-            (x1 - x0).max(0.0)
+            (x1 - x0).max(0.0),
+            band.fill
         )
     };
     let mut start = None;
     for s in samples {
-        match (start, s.interrupted) {
+        match (start, (band.holds)(s)) {
             (None, true) => start = Some(s.t_s),
             (Some(from), false) => {
-                band(from, s.t_s)?;
+                shade(from, s.t_s)?;
                 start = None;
             }
             _ => {}
         }
     }
     match (start, samples.last()) {
-        (Some(from), Some(last)) => band(from, last.t_s),
+        (Some(from), Some(last)) => shade(from, last.t_s),
         _ => Ok(()),
     }
 }
@@ -504,13 +532,19 @@ fn legend(out: &mut String) -> fmt::Result {
         };
         entry(out, colour, dash, 1.0, text)?;
     }
-    writeln!(
-        out,
-        r##"<rect x="{x}" y="{:.1}" width="22" height="10" fill="#fbe3c8"/><text x="{}" y="{:.1}">interrupted</text>"##,
-        y - 5.0,
-        x + 28.0,
-        y + 4.0
-    )
+    for band in BANDS {
+        writeln!(
+            out,
+            r##"<rect x="{x}" y="{:.1}" width="22" height="10" fill="{}"/><text x="{}" y="{:.1}">{}</text>"##,
+            y - 5.0,
+            band.fill,
+            x + 28.0,
+            y + 4.0,
+            band.name
+        )?;
+        y += 18.0;
+    }
+    Ok(())
 }
 
 /// Text with the XML special characters escaped.
@@ -705,6 +739,7 @@ mod tests {
             s.qd[0] = 90f64.to_radians();
             s.tcp_speed = 0.25 * t;
             s.interrupted = (400..600).contains(&i);
+            s.blending = (700..800).contains(&i);
             s
         });
         let markers = [
@@ -737,6 +772,12 @@ mod tests {
         assert_eq!(
             tags.iter()
                 .filter(|t| t.starts_with("rect class=\"interrupted\""))
+                .count(),
+            3
+        );
+        assert_eq!(
+            tags.iter()
+                .filter(|t| t.starts_with("rect class=\"blending\""))
                 .count(),
             3
         );
