@@ -6,6 +6,7 @@ use std::time::Duration;
 use plc_client::{MoveAxesAbsolute, Request};
 use shared_types::srci::message::{code, state};
 use shared_types::srci::tables::move_linear_absolute as mla;
+use shared_types::srci::telegram::status_bit;
 
 use super::move_requests::{assert_tcp_at, keep_configuration, move_request, set_pose, tcp};
 use crate::common::{HOME, actual_joints, enabled, expect_error, max_deviation};
@@ -33,12 +34,15 @@ fn blended_line(target: [f64; 6], mode: u8, parameter: f32) -> Request {
     })
 }
 
-/// Submits both, runs until both end, and expects both DONE.
+/// Submits both, runs until both end, and expects both DONE and the robot to have reported
+/// IsBlending (StatusRobotArm bit 4) in between: the pair really blended.
 fn run_pair(plc: &mut crate::common::Plc, first: &Request, second: &Request) {
     let a = plc.task_mut().submit(first).expect("submit");
     let b = plc.task_mut().submit(second).expect("submit");
+    let mut seen = 0u32;
     plc.run_until(
         |t| {
+            seen |= t.status_word();
             [a, b]
                 .iter()
                 .all(|&h| t.status(h).is_some_and(|s| s.is_final()))
@@ -50,6 +54,11 @@ fn run_pair(plc: &mut crate::common::Plc, first: &Request, second: &Request) {
         let s = plc.task().status(h).cloned().expect("status");
         assert_eq!((s.state, s.code), (state::DONE, 0), "{s:?}");
     }
+    assert_ne!(
+        seen & status_bit::IS_BLENDING,
+        0,
+        "IsBlending never reported"
+    );
 }
 
 #[test]

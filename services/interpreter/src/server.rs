@@ -1086,6 +1086,9 @@ impl Server {
             if s.constant_velocity {
                 w |= status_bit::CONSTANT_VELOCITY;
             }
+            if s.blending {
+                w |= status_bit::IS_BLENDING;
+            }
         }
         if self.error_pending {
             w |= status_bit::ERROR_PENDING;
