@@ -499,12 +499,16 @@ fn profinet_py_connects_and_exchanges_cyclic_data_with_the_srci_module() {
     let _ = std::fs::remove_dir_all(&work);
 }
 
-/// The `rc` executable, built by `cargo build --bin rc` in the shared target folder (or
-/// `RC_BIN`); `None` (the test skips) when it is not built, except under CI.
+/// The `rc` executable of this build (`cargo test --workspace` builds it; `cargo build --bin
+/// rc` otherwise), next to the folder of this test's own executable in the target folder
+/// (`CARGO_TARGET_DIR` included), or `RC_BIN`; `None` (the test skips) when it is not built,
+/// except under CI.
 fn rc_binary() -> Option<PathBuf> {
-    let rc = std::env::var_os("RC_BIN")
-        .map(PathBuf::from)
+    let built = std::env::current_exe()
+        .ok()
+        .and_then(|test| Some(test.parent()?.parent()?.join("rc")))
         .unwrap_or_else(|| repository().join("target/debug/rc"));
+    let rc = std::env::var_os("RC_BIN").map_or(built, PathBuf::from);
     if rc.exists() {
         return Some(rc);
     }
