@@ -380,9 +380,7 @@ mod tests {
         assert!(matches!(&moves[1].request, Request::MoveAxesAbsolute(m) if m.aborting));
         // The last two blend: the first is sent on and buffered while the other runs.
         assert_eq!(moves[2].wait, Wait::Active);
-        assert!(
-            matches!(&moves[2].request, Request::MoveAxesAbsolute(m) if m.blending_mode == 11)
-        );
+        assert!(matches!(&moves[2].request, Request::MoveAxesAbsolute(m) if m.blending_mode == 11));
     }
 
     #[test]
