@@ -1,12 +1,18 @@
 //! The PROFINET row of `rc bench latency` (issue 6): the period of our cyclic input frames
-//! (controller → PLC) at 8, 2 and 1 ms, measured from a tshark capture.
+//! (controller → PLC) at 8, 2 and 1 ms, and the SRCI reply latency through PROFINET at 8 and
+//! 2 ms, both measured from tshark captures.
 //!
 //! Two private network namespaces joined by a veth pair: `rc run` with the PROFINET transport
-//! in one, profinet-py's cyclic IO-controller (`target/profinet-venv`, see
-//! `services/profinet/setup.sh`) and tshark in the other, a few seconds per period. Needs
-//! root, `ip`, tshark and the venv; without them the row is skipped with one line saying why.
-//! The SRCI reply latency through PROFINET is not measured: profinet-py's cyclic command
-//! sends no SRCI telegrams (zero output data), so there is no request to time a reply to.
+//! in one, profinet-py (`target/profinet-venv`, see `services/profinet/setup.sh`) and tshark
+//! in the other. The frame period comes from profinet-py's cyclic IO-controller, a few
+//! seconds per period. The reply latency comes from `rc plc` sending ReadActualPosition
+//! requests through the system test's gateway script (`services/profinet/tests/
+//! srci_gateway.py`: TCP from `rc plc`, profinet-py as the IO-controller), captured on both
+//! ends of the veth (a sender's own frames do not show in a capture on its interface, so
+//! each end captures what it receives: the PLC's output frames as they reach our device,
+//! our input frames as they reach the PLC): every output frame whose telegram carries a new
+//! SEQ is matched to the first input frame whose telegram acknowledges it. Needs root, `ip`, tshark and the venv; without them the
+//! row is skipped with one line saying why.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -15,7 +21,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use orchestrator::child_process;
+use plc_client::engine::CyclicSelection;
 use shared_types::config::Config;
+use shared_types::srci::telegram::{
+    PLC_HEADER_LEN, PlcHeader, ROBOT_HEADER_LEN, RobotHeader, Sequence, sequence_areas,
+};
 use toml::{Table, Value};
 
 use super::private_controller::{PrivateConfigError, private_config_text};
@@ -34,8 +44,22 @@ const START_TIMEOUT: Duration = Duration::from_secs(60);
 /// What the controller logs when its DCP responder listens, and when the watchdog ends an AR.
 const LISTENING: &str = "DCP responder listening";
 const WATCHDOG: &str = "the PLC's cyclic data stopped";
-/// The checkout this `rc` was built from: the venv and the GSDML are found there.
+/// The checkout this `rc` was built from: the venv, the GSDML and the gateway script are
+/// found there.
 const REPOSITORY: &str = env!("CARGO_MANIFEST_DIR");
+/// Periods of the reply latency measurement (ms).
+const LATENCY_PERIODS_MS: [u64; 2] = [8, 2];
+/// ReadActualPosition requests per latency period.
+const LATENCY_REQUESTS: usize = 100;
+/// The gateway's TCP address for `rc plc`, on the loopback of the PLC namespace.
+const GATEWAY_ADDRESS: &str = "127.0.0.1:5000";
+/// `rc plc`'s lifesign timeout through the gateway, whose round trip takes three input
+/// frames (as in the system test).
+const GATEWAY_LIFESIGN_MS: &str = "200";
+/// How long the gateway may take until it is in data exchange.
+const GATEWAY_TIMEOUT: Duration = Duration::from_secs(30);
+/// What the gateway prints once it is in data exchange.
+const GATEWAY_READY: &str = "gateway ready";
 
 /// The printed lines of the PROFINET row: the measurement, or one line saying why it was
 /// skipped or failed. Never fails: the rest of the bench stands without it.
@@ -45,7 +69,7 @@ pub fn report(config: &Config) -> String {
         Err(why) => return format!("PROFINET row skipped: {why}\n"),
     };
     match measure(config, &tools) {
-        Ok(periods) => render(&periods),
+        Ok((periods, latencies)) => render(&periods, &latencies),
         Err(e) => format!("PROFINET row failed: {e:#}\n"),
     }
 }
@@ -54,6 +78,9 @@ pub fn report(config: &Config) -> String {
 struct Tools {
     tshark: PathBuf,
     profinet_py: PathBuf,
+    /// The venv's Python, for the gateway script.
+    python: PathBuf,
+    gateway: PathBuf,
     gsdml: PathBuf,
 }
 
@@ -84,12 +111,15 @@ impl Tools {
             ));
         }
         let gsdml = Path::new(REPOSITORY).join("config/GSDML-V2.41-rc-SRCI-20261122.xml");
-        if !gsdml.exists() {
-            return Err(format!("{} is missing", gsdml.display()));
+        let gateway = Path::new(REPOSITORY).join("services/profinet/tests/srci_gateway.py");
+        if let Some(missing) = [&gsdml, &gateway].into_iter().find(|path| !path.exists()) {
+            return Err(format!("{} is missing", missing.display()));
         }
         Ok(Self {
             tshark,
             profinet_py,
+            python: venv.join("bin/python"),
+            gateway,
             gsdml,
         })
     }
@@ -133,7 +163,19 @@ struct PeriodResult {
     profinet_py: String,
 }
 
-fn measure(config: &Config, tools: &Tools) -> anyhow::Result<Vec<PeriodResult>> {
+/// What one reply latency period gave.
+struct LatencyResult {
+    period_ms: u64,
+    /// The requests matched to their replies and `rc plc`'s result line, or why the period
+    /// could not be measured.
+    outcome: Result<(Replies, String), String>,
+}
+
+/// The frame periods, then the reply latencies (each period's failure kept in its result).
+fn measure(
+    config: &Config,
+    tools: &Tools,
+) -> anyhow::Result<(Vec<PeriodResult>, Vec<LatencyResult>)> {
     let dir = config
         .path
         .as_deref()
@@ -180,7 +222,7 @@ fn measure(config: &Config, tools: &Tools) -> anyhow::Result<Vec<PeriodResult>> 
         progress(&format!(
             "PROFINET input frames at {period_ms} ms ({SECONDS_PER_PERIOD} s)"
         ));
-        let capture_file = dir.join(format!("{period_ms}ms.pcapng"));
+        let capture_file = dir.join(format!("{period_ms}ms.pcap"));
         let result = measure_period(
             &namespaces,
             tools,
@@ -192,7 +234,187 @@ fn measure(config: &Config, tools: &Tools) -> anyhow::Result<Vec<PeriodResult>> 
         .with_context(|| format!("{period_ms} ms (controller log: {})", log_path.display()))?;
         results.push(result);
     }
-    Ok(results)
+    let run = LatencyRun {
+        namespaces: &namespaces,
+        tools,
+        station,
+        module_size: usize::from(config.main.fieldbus.profinet.module_size),
+        rc: &exe,
+        config_file: &config_file,
+        dir: &dir,
+    };
+    let latencies = LATENCY_PERIODS_MS
+        .into_iter()
+        .map(|period_ms| {
+            progress(&format!(
+                "SRCI reply latency through PROFINET at {period_ms} ms \
+                 ({LATENCY_REQUESTS} requests)"
+            ));
+            LatencyResult {
+                period_ms,
+                outcome: run.measure(period_ms).map_err(|e| format!("{e:#}")),
+            }
+        })
+        .collect();
+    Ok((results, latencies))
+}
+
+/// What a reply latency period needs.
+struct LatencyRun<'a> {
+    namespaces: &'a Namespaces,
+    tools: &'a Tools,
+    station: &'a str,
+    /// Bytes of the SRCI module (and of each telegram) per direction.
+    module_size: usize,
+    rc: &'a Path,
+    config_file: &'a Path,
+    dir: &'a Path,
+}
+
+impl LatencyRun<'_> {
+    /// Runs the gateway at `period_ms` and `rc plc` through it while capturing on the
+    /// device's interface; the requests matched to their replies and `rc plc`'s result.
+    fn measure(&self, period_ms: u64) -> anyhow::Result<(Replies, String)> {
+        let (namespaces, tools) = (self.namespaces, self.tools);
+        let program = self.dir.join("reply-latency.toml");
+        std::fs::write(&program, latency_program(LATENCY_REQUESTS))
+            .with_context(|| format!("cannot write {}", program.display()))?;
+        // A sender's frames do not show in a capture on its own interface (neither
+        // profinet-py's nor ours): each end of the veth captures the frames it receives.
+        let captures = [
+            (&namespaces.device, &namespaces.device_interface, "device"),
+            (&namespaces.plc, &namespaces.plc_interface, "plc"),
+        ]
+        .map(|(namespace, interface, end)| {
+            let file = self.dir.join(format!("srci-{period_ms}ms-{end}.pcap"));
+            start_capture(namespaces, tools, namespace, interface, &file)
+                .map(|capture| (capture, file))
+        });
+        let mut running = captures.into_iter().collect::<anyhow::Result<Vec<_>>>()?;
+        let gateway_log = self.dir.join(format!("gateway-{period_ms}ms.log"));
+        let log = std::fs::File::create(&gateway_log)
+            .with_context(|| format!("cannot create {}", gateway_log.display()))?;
+        let mut gateway = namespaces.command(&namespaces.plc, &tools.python);
+        gateway
+            .arg(&tools.gateway)
+            .arg(&namespaces.plc_interface)
+            .arg(self.station)
+            .arg(&tools.gsdml)
+            .args(["--listen", GATEWAY_ADDRESS])
+            .args(["--cycle-ms", &period_ms.to_string()])
+            .args(["--size", &self.module_size.to_string()])
+            .stdin(Stdio::null())
+            .stdout(log.try_clone().context("cannot share the log file")?)
+            .stderr(log);
+        let mut gateway = Running::spawn(gateway, "the gateway")?;
+        wait_for_text(&gateway_log, GATEWAY_READY, GATEWAY_TIMEOUT)
+            .with_context(|| format!("gateway log: {}", gateway_log.display()))?;
+        let layout = std::fs::read_to_string(&gateway_log)
+            .ok()
+            .as_deref()
+            .and_then(parse_layout)
+            .with_context(|| {
+                format!(
+                    "the gateway printed no SRCI layout ({})",
+                    gateway_log.display()
+                )
+            })?;
+        let output = namespaces
+            .command(&namespaces.plc, self.rc)
+            .arg("plc")
+            .arg(&program)
+            .args(["--addr", GATEWAY_ADDRESS])
+            .args(["--cycle-ms", &period_ms.to_string()])
+            .args(["--lifesign-ms", GATEWAY_LIFESIGN_MS])
+            .arg("--config")
+            .arg(self.config_file)
+            .stdin(Stdio::null())
+            .output()
+            .context("cannot run rc plc")?;
+        for (capture, _) in &mut running {
+            capture.stop()?;
+        }
+        gateway.stop()?;
+        let rc_plc = outcome(
+            "rc plc",
+            &String::from_utf8_lossy(&output.stdout),
+            "result:",
+            &output.status.to_string(),
+        );
+        let mut files = Vec::new();
+        for (_, file) in &running {
+            let bytes =
+                std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
+            files.push((file, bytes));
+        }
+        let mut captures = Vec::new();
+        for (file, bytes) in &files {
+            captures.push(
+                pcap_frames(bytes).with_context(|| format!("cannot read {}", file.display()))?,
+            );
+        }
+        let frames = merge_captures(captures);
+        Ok((match_replies(&frames, &layout, self.module_size), rc_plc))
+    }
+}
+
+/// A `rc plc` program of `requests` ReadActualPosition calls.
+fn latency_program(requests: usize) -> String {
+    let mut text = String::from("name = \"reply latency\"\n");
+    for _ in 0..requests {
+        text.push_str("\n[[step]]\ncall = \"ReadActualPosition\"\n");
+    }
+    text
+}
+
+/// Starts tshark in `namespace`, writing the PROFINET frames on `interface` to
+/// `capture_file` (classic pcap, which [`pcap_frames`] reads); returns once it captures.
+fn start_capture(
+    namespaces: &Namespaces,
+    tools: &Tools,
+    namespace: &str,
+    interface: &str,
+    capture_file: &Path,
+) -> anyhow::Result<Running> {
+    // A file of an earlier run would look like a started capture.
+    match std::fs::remove_file(capture_file) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            return Err(e).with_context(|| format!("cannot remove {}", capture_file.display()));
+        }
+        _ => {}
+    }
+    let log_path = capture_file.with_extension("tshark.log");
+    let log = std::fs::File::create(&log_path)
+        .with_context(|| format!("cannot create {}", log_path.display()))?;
+    let mut capture = namespaces.command(namespace, &tools.tshark);
+    capture
+        .args([
+            "-i",
+            interface,
+            "-f",
+            "ether proto 0x8892",
+            "-F",
+            "pcap",
+            "-w",
+        ])
+        .arg(capture_file)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(log);
+    let mut capture = Running::spawn(capture, "tshark")?;
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !capture_file.exists() {
+        let ended = capture.child.try_wait().ok().flatten();
+        if ended.is_some() || Instant::now() > deadline {
+            let log = std::fs::read_to_string(&log_path).unwrap_or_default();
+            let how = ended.map_or_else(|| "within 10 s".to_string(), |s| format!("({s})"));
+            bail!("tshark did not start capturing {how}: {}", log.trim());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // dumpcap creates the file before the capture filter is applied.
+    std::thread::sleep(Duration::from_millis(500));
+    Ok(capture)
 }
 
 fn measure_period(
@@ -204,29 +426,13 @@ fn measure_period(
     log_path: &Path,
 ) -> anyhow::Result<PeriodResult> {
     let aborts_before = count_in_file(log_path, WATCHDOG);
-    let mut capture = namespaces.command(&namespaces.plc, &tools.tshark);
-    capture
-        .args([
-            "-i",
-            &namespaces.plc_interface,
-            "-f",
-            "ether proto 0x8892",
-            "-w",
-        ])
-        .arg(capture_file)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null());
-    let mut capture = Running::spawn(capture, "tshark")?;
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while !capture_file.exists() {
-        if Instant::now() > deadline {
-            bail!("tshark did not start capturing");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    // dumpcap creates the file before the capture filter is applied.
-    std::thread::sleep(Duration::from_millis(500));
+    let mut capture = start_capture(
+        namespaces,
+        tools,
+        &namespaces.plc,
+        &namespaces.plc_interface,
+        capture_file,
+    )?;
     let output = namespaces
         .command(&namespaces.plc, &tools.profinet_py)
         .args(["-i", &namespaces.plc_interface, "-t", DISCOVER_TIMEOUT_S])
@@ -239,7 +445,12 @@ fn measure_period(
         .context("cannot run profinet-py")?;
     capture.stop()?;
     let stdout = String::from_utf8_lossy(&output.stdout);
-    let profinet_py = profinet_py_outcome(&stdout, &output.status.to_string());
+    let profinet_py = outcome(
+        "profinet-py",
+        &stdout,
+        "Stopped.",
+        &output.status.to_string(),
+    );
     let Some(input) = input_frame_id(&stdout) else {
         bail!(
             "profinet-py did not connect: {}",
@@ -360,37 +571,301 @@ fn input_frame_id(stdout: &str) -> Option<&str> {
     })
 }
 
-/// profinet-py's `Stopped.` summary line, or its exit status when it has none.
-fn profinet_py_outcome(stdout: &str, status: &str) -> String {
+/// `who`'s summary line (the first line of `stdout` starting with `marker`), or its exit
+/// `status` when it has none.
+fn outcome(who: &str, stdout: &str, marker: &str, status: &str) -> String {
     stdout
         .lines()
-        .find(|line| line.starts_with("Stopped."))
+        .map(str::trim)
+        .find(|line| line.starts_with(marker))
         .map_or_else(
-            || format!("profinet-py ended without a summary ({status})"),
-            |line| format!("profinet-py: {}", line.trim()),
+            || format!("{who} ended without a summary ({status})"),
+            |line| format!("{who}: {line}"),
         )
 }
 
+/// Where the SRCI module's data sits in one direction's frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Place {
+    frame_id: u16,
+    /// Offset of the telegram in the C_SDU.
+    offset: usize,
+}
+
+impl Place {
+    /// The telegram of `size` bytes in the C_SDU `c_sdu` (`None` when it is too short).
+    fn telegram<'a>(&self, c_sdu: &'a [u8], size: usize) -> Option<&'a [u8]> {
+        c_sdu.get(self.offset..self.offset.checked_add(size)?)
+    }
+}
+
+/// Where the SRCI module's data sits in the PLC's output frames and in our input frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct SrciLayout {
+    output: Place,
+    input: Place,
+}
+
+/// The layout from the gateway's line
+/// `srci layout: output frame 0xC000 offset 0 input frame 0xC001 offset 3`.
+fn parse_layout(text: &str) -> Option<SrciLayout> {
+    let line = text
+        .lines()
+        .find_map(|line| line.strip_prefix("srci layout:"))?;
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let place = |id: &str, offset: &str| {
+        Some(Place {
+            frame_id: u16::from_str_radix(id.strip_prefix("0x")?, 16).ok()?,
+            offset: offset.parse().ok()?,
+        })
+    };
+    match words.as_slice() {
+        [
+            "output",
+            "frame",
+            output_id,
+            "offset",
+            output_offset,
+            "input",
+            "frame",
+            input_id,
+            "offset",
+            input_offset,
+        ] => Some(SrciLayout {
+            output: place(output_id, output_offset)?,
+            input: place(input_id, input_offset)?,
+        }),
+        _ => None,
+    }
+}
+
+/// A capture file that is not a classic pcap file of Ethernet frames.
+#[derive(Debug, PartialEq, Eq, thiserror::Error)]
+enum PcapError {
+    #[error("not a pcap file")]
+    Magic,
+    #[error("link type {0} is not Ethernet")]
+    LinkType(u32),
+    #[error("the capture ends inside the record at byte {0}")]
+    Truncated(usize),
+}
+
+/// The frames of a classic pcap file (either byte order, µs or ns timestamps) with their
+/// capture times in ns since the epoch.
+fn pcap_frames(bytes: &[u8]) -> Result<Vec<(u64, &[u8])>, PcapError> {
+    let (big_endian, nanoseconds) = match bytes.get(0..4) {
+        Some([0xd4, 0xc3, 0xb2, 0xa1]) => (false, false),
+        Some([0xa1, 0xb2, 0xc3, 0xd4]) => (true, false),
+        Some([0x4d, 0x3c, 0xb2, 0xa1]) => (false, true),
+        Some([0xa1, 0xb2, 0x3c, 0x4d]) => (true, true),
+        _ => return Err(PcapError::Magic),
+    };
+    let u32_at = |at: usize| {
+        let field: [u8; 4] = bytes.get(at..at.checked_add(4)?)?.try_into().ok()?;
+        Some(if big_endian {
+            u32::from_be_bytes(field)
+        } else {
+            u32::from_le_bytes(field)
+        })
+    };
+    let link_type = u32_at(20).ok_or(PcapError::Truncated(0))?;
+    if link_type != 1 {
+        return Err(PcapError::LinkType(link_type));
+    }
+    let fraction_ns = if nanoseconds { 1 } else { 1_000 };
+    let mut frames = Vec::new();
+    let mut at = 24;
+    while at < bytes.len() {
+        let field = |i: usize| u32_at(at + 4 * i).ok_or(PcapError::Truncated(at));
+        let (seconds, fraction, captured) = (field(0)?, field(1)?, field(2)?);
+        let start = at + 16;
+        let frame = usize::try_from(captured)
+            .ok()
+            .and_then(|length| bytes.get(start..start.checked_add(length)?))
+            .ok_or(PcapError::Truncated(at))?;
+        let time = u64::from(seconds) * 1_000_000_000 + u64::from(fraction) * fraction_ns;
+        frames.push((time, frame));
+        at = start + frame.len();
+    }
+    Ok(frames)
+}
+
+/// The frames of `captures` (each in time order, all timed by the same clock) in time order,
+/// cut to the span in which all of them captured: tshark loses a different tail of each
+/// capture when stopped, and a request whose reply fell into a lost tail is no unanswered
+/// request.
+fn merge_captures(captures: Vec<Vec<(u64, &[u8])>>) -> Vec<(u64, &[u8])> {
+    // An empty capture has no span: then nothing was captured by all of them.
+    let span = |capture: &Vec<(u64, &[u8])>| Some((capture.first()?.0, capture.last()?.0));
+    let Some(spans) = captures.iter().map(span).collect::<Option<Vec<_>>>() else {
+        return Vec::new();
+    };
+    let first = spans.iter().map(|s| s.0).max().unwrap_or(0);
+    let last = spans.iter().map(|s| s.1).min().unwrap_or(0);
+    let mut frames: Vec<_> = captures
+        .into_iter()
+        .flatten()
+        .filter(|&(time, _)| (first..=last).contains(&time))
+        .collect();
+    // Stable: each capture keeps its order among equal times.
+    frames.sort_by_key(|&(time, _)| time);
+    frames
+}
+
+/// The FrameID and what follows it (the C_SDU, then the APDU status) of a PROFINET RT frame
+/// (EtherType 0x8892 after any 802.1Q tags); `None` for any other frame.
+fn rt_payload(frame: &[u8]) -> Option<(u16, &[u8])> {
+    let be16 = |at: usize| Some(u16::from_be_bytes(frame.get(at..at + 2)?.try_into().ok()?));
+    let mut at = 12;
+    while be16(at)? == 0x8100 {
+        at += 4;
+    }
+    (be16(at)? == 0x8892).then_some(())?;
+    Some((be16(at + 2)?, frame.get(at + 4..)?))
+}
+
+/// The SEQ_ACK of the (first) sequence of `telegram`, behind its header and `cyclic_len`
+/// bytes of cyclic data.
+fn seq_ack(telegram: &[u8], header_len: usize, cyclic_len: usize) -> Option<u16> {
+    let ([(start, length), _], _) = sequence_areas(telegram.len(), header_len, cyclic_len, false);
+    let area = telegram.get(start..start.checked_add(length)?)?;
+    Some(Sequence::decode(area).ok()?.seq_ack)
+}
+
+/// The SEQ of a PLC→robot telegram and the bytes of cyclic data the robot sends before its
+/// ACK; `None` for a telegram torn between two writes (header and footer lifesign differ)
+/// or one with two sequences (not matched here).
+fn plc_seq(telegram: &[u8]) -> Option<(u16, usize)> {
+    if !PlcHeader::is_consistent(telegram) {
+        return None;
+    }
+    let header = PlcHeader::decode(telegram).ok()?;
+    if header.two_sequences() {
+        return None;
+    }
+    let selected = header.telegram_number_rob_to_plc;
+    let cyclic = CyclicSelection {
+        cartesian: selected & (1 << 1) != 0,
+        joints: selected & (1 << 2) != 0,
+    };
+    let seq = seq_ack(telegram, PLC_HEADER_LEN, cyclic.plc_len())?;
+    Some((seq, cyclic.robot_len()))
+}
+
+/// The ACK of a robot→PLC telegram with `cyclic_len` bytes of cyclic data; `None` for a
+/// torn telegram.
+fn robot_ack(telegram: &[u8], cyclic_len: usize) -> Option<u16> {
+    RobotHeader::is_consistent(telegram)
+        .then(|| seq_ack(telegram, ROBOT_HEADER_LEN, cyclic_len))
+        .flatten()
+}
+
+/// SRCI requests matched to their replies in a capture.
+#[derive(Debug, Default, PartialEq, Eq)]
+struct Replies {
+    /// From each output frame that carried a new SEQ to the first input frame whose ACK is
+    /// that SEQ (ns).
+    latencies: Vec<u64>,
+    /// Of those, the replies in the first input frame after their request.
+    next_frame: usize,
+    /// New SEQs that no input frame acknowledged before the next SEQ or the capture's end.
+    unanswered: usize,
+    /// New SEQs the robot's ACK already equalled when they appeared: not timed.
+    ambiguous: usize,
+    /// SRCI frames whose telegram could not be read (too short, torn, two sequences).
+    unreadable: usize,
+}
+
+/// Matches, in capture order (`frames` sorted by time), every PLC→robot telegram with a new SEQ (0, the SEQ before
+/// the first request, excluded) to the first robot→PLC telegram whose ACK is that SEQ.
+fn match_replies(frames: &[(u64, &[u8])], layout: &SrciLayout, size: usize) -> Replies {
+    let mut replies = Replies::default();
+    let mut last_seq = None;
+    let mut ack = None;
+    let mut robot_cyclic_len = 0;
+    // The SEQ waiting for its ACK, when it was sent, and whether an input frame without
+    // its ACK followed it.
+    let mut pending: Option<(u16, u64, bool)> = None;
+    for &(time, frame) in frames {
+        let Some((frame_id, c_sdu)) = rt_payload(frame) else {
+            continue;
+        };
+        if frame_id == layout.output.frame_id {
+            let Some((seq, cyclic_len)) = layout.output.telegram(c_sdu, size).and_then(plc_seq)
+            else {
+                replies.unreadable += 1;
+                continue;
+            };
+            robot_cyclic_len = cyclic_len;
+            if last_seq == Some(seq) {
+                continue;
+            }
+            last_seq = Some(seq);
+            if pending.take().is_some() {
+                replies.unanswered += 1;
+            }
+            if seq == 0 {
+                continue;
+            }
+            if ack == Some(seq) {
+                replies.ambiguous += 1;
+            } else {
+                pending = Some((seq, time, false));
+            }
+        } else if frame_id == layout.input.frame_id {
+            let Some(robot) = layout
+                .input
+                .telegram(c_sdu, size)
+                .and_then(|telegram| robot_ack(telegram, robot_cyclic_len))
+            else {
+                replies.unreadable += 1;
+                continue;
+            };
+            ack = Some(robot);
+            match &mut pending {
+                Some((seq, sent, missed)) if *seq == robot => {
+                    replies.latencies.push(time.saturating_sub(*sent));
+                    replies.next_frame += usize::from(!*missed);
+                    pending = None;
+                }
+                Some((_, _, missed)) => *missed = true,
+                None => {}
+            }
+        }
+    }
+    replies.unanswered += usize::from(pending.is_some());
+    replies
+}
+
+/// `ns` in ms with three decimals.
+fn ms(ns: u64) -> String {
+    format!("{:.3}", ns as f64 / 1e6)
+}
+
+/// The count and percentiles of `distribution`, or `empty` when it has no samples.
+fn figures(distribution: &Distribution, empty: &str) -> String {
+    distribution.summary().map_or_else(
+        || empty.to_string(),
+        |s| {
+            format!(
+                "n {:>5}  p50 {:>7} ms  p99 {:>7} ms  max {:>7} ms",
+                s.count,
+                ms(s.p50),
+                ms(s.p99),
+                ms(s.max)
+            )
+        },
+    )
+}
+
 /// The printed lines of the measured row.
-fn render(periods: &[PeriodResult]) -> String {
-    let ms = |ns: u64| format!("{:.3}", ns as f64 / 1e6);
+fn render(periods: &[PeriodResult], latencies: &[LatencyResult]) -> String {
     let mut text = format!(
         "PROFINET input frame period (controller -> PLC, veth between two namespaces, \
          profinet-py IO-controller, tshark capture, {SECONDS_PER_PERIOD} s per period):\n"
     );
     for p in periods {
-        let figures = p.intervals.summary().map_or_else(
-            || "no intervals captured".to_string(),
-            |s| {
-                format!(
-                    "n {:>5}  p50 {:>7} ms  p99 {:>7} ms  max {:>7} ms",
-                    s.count,
-                    ms(s.p50),
-                    ms(s.p99),
-                    ms(s.max)
-                )
-            },
-        );
+        let figures = figures(&p.intervals, "no intervals captured");
         let ending = match p.ending {
             Ending::Clean => String::new(),
             Ending::AfterPlcStopped => {
@@ -408,11 +883,55 @@ fn render(periods: &[PeriodResult]) -> String {
             p.period_ms, p.profinet_py
         );
     }
-    text.push_str(
-        "  SRCI reply latency through PROFINET: not measured (profinet-py's cyclic command \
-         sends no SRCI telegrams to reply to)\n",
+    let _ = writeln!(
+        text,
+        "SRCI reply latency through PROFINET ({LATENCY_REQUESTS} ReadActualPosition from rc plc \
+         through the gateway script and profinet-py; captures on both veth ends, from the \
+         PLC's output frame with a new SEQ reaching our device to our first input frame whose \
+         ACK is that SEQ reaching the PLC: our device, fieldbus process and interpreter plus \
+         the wait for the next input cycle):"
     );
+    for l in latencies {
+        let line = match &l.outcome {
+            Ok((replies, rc_plc)) => format!("{}; {rc_plc}", replies_line(replies)),
+            Err(why) => format!("not measured: {why}"),
+        };
+        let _ = writeln!(text, "  {:>2} ms  {line}", l.period_ms);
+    }
     text
+}
+
+/// The figures of `replies`, with what could not be matched; no figures at all when nothing
+/// could.
+fn replies_line(replies: &Replies) -> String {
+    let mut line = figures(
+        &Distribution::new(replies.latencies.clone()),
+        "no request could be matched to a reply in the capture",
+    );
+    if !replies.latencies.is_empty() {
+        let _ = write!(
+            line,
+            "; {}/{} in the first input frame after the request",
+            replies.next_frame,
+            replies.latencies.len()
+        );
+    }
+    for (count, what) in [
+        (
+            replies.unanswered,
+            "requests without an acknowledging reply",
+        ),
+        (
+            replies.ambiguous,
+            "requests not timed (the ACK already equalled the new SEQ)",
+        ),
+        (replies.unreadable, "unreadable SRCI frames"),
+    ] {
+        if count > 0 {
+            let _ = write!(line, "; {count} {what}");
+        }
+    }
+    line
 }
 
 /// How often `text` occurs in `file` (0 when it cannot be read).
@@ -595,10 +1114,19 @@ mod tests {
         assert_eq!(input_frame_id(stdout), Some("0xC001"));
         assert_eq!(input_frame_id("Input frame: none"), None);
         assert_eq!(
-            profinet_py_outcome(stdout, "exit status: 0"),
+            outcome("profinet-py", stdout, "Stopped.", "exit status: 0"),
             "profinet-py: Stopped. TX=375 RX=374 missed=0"
         );
-        assert!(profinet_py_outcome("", "exit status: 1").contains("exit status: 1"));
+        assert!(outcome("rc plc", "", "result:", "exit status: 1").contains("exit status: 1"));
+        assert_eq!(
+            outcome(
+                "rc plc",
+                "  result: SUCCESS (3/3 steps passed)\n",
+                "result:",
+                ""
+            ),
+            "rc plc: result: SUCCESS (3/3 steps passed)"
+        );
     }
 
     #[test]
@@ -634,14 +1162,264 @@ mod tests {
 
     #[test]
     fn an_aborted_period_says_so() {
-        let text = render(&[PeriodResult {
-            period_ms: 1,
-            intervals: intervals(&[0, 1_000_000, 2_000_000]),
-            ending: Ending::DuringExchange,
-            profinet_py: "profinet-py: Stopped.".into(),
-        }]);
+        let text = render(
+            &[PeriodResult {
+                period_ms: 1,
+                intervals: intervals(&[0, 1_000_000, 2_000_000]),
+                ending: Ending::DuringExchange,
+                profinet_py: "profinet-py: Stopped.".into(),
+            }],
+            &[
+                LatencyResult {
+                    period_ms: 8,
+                    outcome: Ok((
+                        Replies {
+                            latencies: vec![9_000_000, 10_000_000],
+                            next_frame: 2,
+                            unanswered: 1,
+                            ..Replies::default()
+                        },
+                        "rc plc: result: SUCCESS".into(),
+                    )),
+                },
+                LatencyResult {
+                    period_ms: 2,
+                    outcome: Err("the gateway died".into()),
+                },
+            ],
+        );
         assert!(text.contains("aborted by the controller's watchdog after 3 frames"));
         assert!(text.contains("p50   1.000 ms"));
-        assert!(text.contains("SRCI reply latency"));
+        assert!(text.contains(
+            "   8 ms  n     2  p50   9.000 ms  p99  10.000 ms  max  10.000 ms; \
+             2/2 in the first input frame after the request; 1 requests without an acknowledging reply; rc plc: result: SUCCESS\n"
+        ));
+        assert!(text.contains("   2 ms  not measured: the gateway died\n"));
+        assert_eq!(
+            replies_line(&Replies {
+                ambiguous: 2,
+                ..Replies::default()
+            }),
+            "no request could be matched to a reply in the capture; 2 requests not timed \
+             (the ACK already equalled the new SEQ)"
+        );
+    }
+
+    #[test]
+    fn the_layout_comes_from_the_gateway() {
+        let log = "srci layout: output frame 0xC000 offset 0 input frame 0xC001 offset 3\n\
+                   gateway ready\n";
+        assert_eq!(
+            parse_layout(log),
+            Some(SrciLayout {
+                output: Place {
+                    frame_id: 0xC000,
+                    offset: 0
+                },
+                input: Place {
+                    frame_id: 0xC001,
+                    offset: 3
+                },
+            })
+        );
+        assert_eq!(parse_layout("gateway ready\n"), None);
+        assert_eq!(
+            parse_layout("srci layout: output frame C000 offset 0 input frame 0xC001 offset 3"),
+            None
+        );
+        assert_eq!(
+            parse_layout("srci layout: output frame 0xC000 offset 0"),
+            None
+        );
+    }
+
+    /// A classic pcap file (little-endian, µs) of `frames` with their times in µs.
+    fn pcap(frames: &[(u32, Vec<u8>)]) -> Vec<u8> {
+        let mut bytes = vec![0xd4, 0xc3, 0xb2, 0xa1, 2, 0, 4, 0];
+        bytes.extend([0; 8]);
+        bytes.extend(65535u32.to_le_bytes());
+        bytes.extend(1u32.to_le_bytes());
+        for (micros, frame) in frames {
+            bytes.extend(1_763_790_000u32.to_le_bytes());
+            bytes.extend(micros.to_le_bytes());
+            let length = u32::try_from(frame.len()).unwrap();
+            bytes.extend(length.to_le_bytes());
+            bytes.extend(length.to_le_bytes());
+            bytes.extend(frame);
+        }
+        bytes
+    }
+
+    #[test]
+    fn pcap_records_are_read_with_their_times() {
+        let bytes = pcap(&[(5, vec![1, 2, 3]), (999_999, vec![])]);
+        let frames = pcap_frames(&bytes).unwrap();
+        assert_eq!(
+            frames,
+            [
+                (1_763_790_000_000_005_000, &[1u8, 2, 3][..]),
+                (1_763_790_000_999_999_000, &[][..])
+            ]
+        );
+        assert_eq!(
+            pcap_frames(&bytes[..bytes.len() - 1]),
+            Err(PcapError::Truncated(43))
+        );
+        assert_eq!(pcap_frames(b"\x0a\x0d\x0d\x0a"), Err(PcapError::Magic));
+        let mut raw_ip = pcap(&[]);
+        raw_ip[20] = 101;
+        assert_eq!(pcap_frames(&raw_ip), Err(PcapError::LinkType(101)));
+        let mut nanoseconds = pcap(&[(7, vec![])]);
+        nanoseconds[..4].copy_from_slice(&[0x4d, 0x3c, 0xb2, 0xa1]);
+        assert_eq!(
+            pcap_frames(&nanoseconds).unwrap()[0].0,
+            1_763_790_000_000_000_007
+        );
+    }
+
+    /// An RT frame with `frame_id` and `c_sdu`, tagged or not.
+    fn rt_frame(frame_id: u16, c_sdu: &[u8], tagged: bool) -> Vec<u8> {
+        let mut frame = vec![0x02; 12];
+        if tagged {
+            frame.extend([0x81, 0x00, 0xC0, 0x00]);
+        }
+        frame.extend([0x88, 0x92]);
+        frame.extend(frame_id.to_be_bytes());
+        frame.extend(c_sdu);
+        frame.extend([0, 0, 0x35, 0]);
+        frame
+    }
+
+    #[test]
+    fn rt_frames_are_found_behind_vlan_tags() {
+        let tagged = rt_frame(0xC001, &[7, 8], true);
+        assert_eq!(
+            rt_payload(&tagged),
+            Some((0xC001, &[7, 8, 0, 0, 0x35, 0][..]))
+        );
+        let untagged = rt_frame(0xC000, &[], false);
+        assert_eq!(rt_payload(&untagged), Some((0xC000, &[0, 0, 0x35, 0][..])));
+        let mut ip = untagged.clone();
+        ip[12..14].copy_from_slice(&[0x08, 0x00]);
+        assert_eq!(rt_payload(&ip), None);
+        assert_eq!(rt_payload(&untagged[..15]), None);
+    }
+
+    const SIZE: usize = 64;
+    const LAYOUT: SrciLayout = SrciLayout {
+        output: Place {
+            frame_id: 0xC000,
+            offset: 0,
+        },
+        input: Place {
+            frame_id: 0xC001,
+            offset: 3,
+        },
+    };
+
+    /// A PLC output frame whose telegram carries `seq` (lifesign 1; torn: footer 2).
+    fn request(seq: u16, torn: bool) -> Vec<u8> {
+        let mut telegram = vec![0; SIZE];
+        telegram[1] = 1;
+        telegram[SIZE - 1] = if torn { 2 } else { 1 };
+        telegram[PLC_HEADER_LEN..PLC_HEADER_LEN + 2].copy_from_slice(&seq.to_be_bytes());
+        let mut c_sdu = telegram;
+        c_sdu.push(0x80);
+        rt_frame(LAYOUT.output.frame_id, &c_sdu, false)
+    }
+
+    /// One of our input frames whose telegram carries `ack`, after three IOPS bytes.
+    fn reply(ack: u16) -> Vec<u8> {
+        let mut telegram = vec![0; SIZE];
+        telegram[1] = 0x30;
+        telegram[SIZE - 1] = 0x30;
+        telegram[ROBOT_HEADER_LEN..ROBOT_HEADER_LEN + 2].copy_from_slice(&ack.to_be_bytes());
+        let mut c_sdu = vec![0x80; 3];
+        c_sdu.extend(telegram);
+        c_sdu.push(0x80);
+        rt_frame(LAYOUT.input.frame_id, &c_sdu, true)
+    }
+
+    fn replies(frames: &[(u64, Vec<u8>)]) -> Replies {
+        let frames: Vec<(u64, &[u8])> = frames.iter().map(|(t, f)| (*t, &f[..])).collect();
+        match_replies(&frames, &LAYOUT, SIZE)
+    }
+
+    #[test]
+    fn each_new_seq_is_timed_to_the_first_reply_acknowledging_it() {
+        let frames = [
+            (0, request(0, false)),
+            (1, reply(0)),
+            (10, request(1, false)),
+            (12, reply(0)),
+            (18, request(1, false)),
+            (20, reply(1)),
+            (28, reply(1)),
+            (30, request(2, false)),
+            (31, request(2, true)),
+            (36, reply(2)),
+            (40, rt_frame(0xFEFE, &[1, 2], false)),
+        ];
+        assert_eq!(
+            replies(&frames),
+            Replies {
+                latencies: vec![10, 6],
+                next_frame: 1,
+                unreadable: 1,
+                ..Replies::default()
+            }
+        );
+    }
+
+    #[test]
+    fn requests_without_a_clear_reply_are_counted_not_timed() {
+        let frames = [
+            (0, reply(5)),
+            // Already acknowledged when it appears: cannot be timed.
+            (10, request(5, false)),
+            // Replaced by the next SEQ before any reply acknowledged it.
+            (20, request(6, false)),
+            (30, request(7, false)),
+            (40, reply(7)),
+            // A reset to SEQ 0 abandons the pending request.
+            (50, request(8, false)),
+            (60, request(0, false)),
+            // Unanswered at the capture's end.
+            (70, request(1, false)),
+            (80, reply(0)),
+        ];
+        assert_eq!(
+            replies(&frames),
+            Replies {
+                latencies: vec![10],
+                next_frame: 1,
+                unanswered: 3,
+                ambiguous: 1,
+                unreadable: 0,
+            }
+        );
+        let short = rt_frame(LAYOUT.input.frame_id, &[0; 10], false);
+        assert_eq!(replies(&[(0, short)]).unreadable, 1);
+    }
+
+    #[test]
+    fn captures_are_merged_over_their_common_span() {
+        let (a, b, c): (&[u8], &[u8], &[u8]) = (&[1], &[2], &[3]);
+        let merged = merge_captures(vec![
+            vec![(1, a), (5, a), (9, a)],
+            vec![(3, b), (5, b), (7, b)],
+            vec![(2, c), (8, c)],
+        ]);
+        assert_eq!(merged, [(3, b), (5, a), (5, b), (7, b)]);
+        assert_eq!(merge_captures(vec![vec![(1, a)], vec![]]), []);
+    }
+
+    #[test]
+    fn the_latency_program_repeats_read_actual_position() {
+        let text = latency_program(3);
+        let table: Table = text.parse().unwrap();
+        let steps = table["step"].as_array().unwrap();
+        assert_eq!(steps.len(), 3);
+        assert_eq!(steps[2]["call"].as_str(), Some("ReadActualPosition"));
     }
 }

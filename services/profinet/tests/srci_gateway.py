@@ -10,7 +10,8 @@ input frame).
 Usage (in the PLC namespace, as root):
     python srci_gateway.py IFACE STATION GSDML --listen 127.0.0.1:5000 --cycle-ms 8 --size 256
 
-Prints "gateway ready" once the AR is in data exchange, and "alarm: TYPE" for every alarm
+Prints "srci layout: ..." (where the SRCI module's data sits in the output and input
+frames), "gateway ready" once the AR is in data exchange, and "alarm: TYPE" for every alarm
 of the device (profinet-py's AlarmListener acknowledges it).
 """
 
@@ -62,6 +63,7 @@ def connect(args):
         reduction_ratio=args.cycle_ms,
         watchdog_factor=6,
     )
+    print_layout(output_iocr, input_iocr)
     cyclic = CyclicController(
         interface=args.interface,
         src_mac=src,
@@ -70,6 +72,20 @@ def connect(args):
         output_iocr=output_iocr,
     )
     return conn, cyclic
+
+
+def print_layout(output_iocr, input_iocr):
+    """Prints where the SRCI module's data sits in the C_SDU of each direction, for captures:
+    "srci layout: output frame 0xC000 offset 0 input frame 0xC001 offset 3"."""
+    def place(iocr):
+        srci = next(
+            o
+            for o in iocr.objects
+            if (o.slot, o.subslot) == (SRCI_SLOT, SRCI_SUBSLOT) and o.data_length > 0
+        )
+        return f"frame 0x{iocr.frame_id:04X} offset {srci.frame_offset}"
+
+    print(f"srci layout: output {place(output_iocr)} input {place(input_iocr)}", flush=True)
 
 
 def serve(args, cyclic):
