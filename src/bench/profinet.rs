@@ -22,6 +22,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, bail};
 use orchestrator::child_process;
 use plc_client::engine::CyclicSelection;
+use profinet::link::veth::VethPair;
 use shared_types::config::Config;
 use shared_types::srci::telegram::{
     PLC_HEADER_LEN, PlcHeader, ROBOT_HEADER_LEN, RobotHeader, Sequence, sequence_areas,
@@ -183,7 +184,7 @@ fn measure(
         .context("the bench's configuration has no folder")?
         .join("profinet");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let namespaces = Namespaces::create()?;
+    let namespaces = VethPair::create("rcb", PLC_ADDRESS, &format!("{DEVICE_IP}/24"))?;
     let base = config
         .path
         .as_deref()
@@ -204,7 +205,7 @@ fn measure(
     let log = std::fs::File::create(&log_path)
         .with_context(|| format!("cannot create {}", log_path.display()))?;
     let exe = std::env::current_exe().context("cannot locate the rc executable")?;
-    let mut command = namespaces.command(&namespaces.device, &exe);
+    let mut command = VethPair::command(&namespaces.device, &exe);
     command
         .arg("run")
         .arg("--config")
@@ -261,7 +262,7 @@ fn measure(
 
 /// What a reply latency period needs.
 struct LatencyRun<'a> {
-    namespaces: &'a Namespaces,
+    namespaces: &'a VethPair,
     tools: &'a Tools,
     station: &'a str,
     /// Bytes of the SRCI module (and of each telegram) per direction.
@@ -287,14 +288,13 @@ impl LatencyRun<'_> {
         ]
         .map(|(namespace, interface, end)| {
             let file = self.dir.join(format!("srci-{period_ms}ms-{end}.pcap"));
-            start_capture(namespaces, tools, namespace, interface, &file)
-                .map(|capture| (capture, file))
+            start_capture(tools, namespace, interface, &file).map(|capture| (capture, file))
         });
         let mut running = captures.into_iter().collect::<anyhow::Result<Vec<_>>>()?;
         let gateway_log = self.dir.join(format!("gateway-{period_ms}ms.log"));
         let log = std::fs::File::create(&gateway_log)
             .with_context(|| format!("cannot create {}", gateway_log.display()))?;
-        let mut gateway = namespaces.command(&namespaces.plc, &tools.python);
+        let mut gateway = VethPair::command(&namespaces.plc, &tools.python);
         gateway
             .arg(&tools.gateway)
             .arg(&namespaces.plc_interface)
@@ -319,8 +319,7 @@ impl LatencyRun<'_> {
                     gateway_log.display()
                 )
             })?;
-        let output = namespaces
-            .command(&namespaces.plc, self.rc)
+        let output = VethPair::command(&namespaces.plc, self.rc)
             .arg("plc")
             .arg(&program)
             .args(["--addr", GATEWAY_ADDRESS])
@@ -370,7 +369,6 @@ fn latency_program(requests: usize) -> String {
 /// Starts tshark in `namespace`, writing the PROFINET frames on `interface` to
 /// `capture_file` (classic pcap, which [`pcap_frames`] reads); returns once it captures.
 fn start_capture(
-    namespaces: &Namespaces,
     tools: &Tools,
     namespace: &str,
     interface: &str,
@@ -386,7 +384,7 @@ fn start_capture(
     let log_path = capture_file.with_extension("tshark.log");
     let log = std::fs::File::create(&log_path)
         .with_context(|| format!("cannot create {}", log_path.display()))?;
-    let mut capture = namespaces.command(namespace, &tools.tshark);
+    let mut capture = VethPair::command(namespace, &tools.tshark);
     capture
         .args([
             "-i",
@@ -418,7 +416,7 @@ fn start_capture(
 }
 
 fn measure_period(
-    namespaces: &Namespaces,
+    namespaces: &VethPair,
     tools: &Tools,
     station: &str,
     period_ms: u64,
@@ -427,14 +425,12 @@ fn measure_period(
 ) -> anyhow::Result<PeriodResult> {
     let aborts_before = count_in_file(log_path, WATCHDOG);
     let mut capture = start_capture(
-        namespaces,
         tools,
         &namespaces.plc,
         &namespaces.plc_interface,
         capture_file,
     )?;
-    let output = namespaces
-        .command(&namespaces.plc, &tools.profinet_py)
+    let output = VethPair::command(&namespaces.plc, &tools.profinet_py)
         .args(["-i", &namespaces.plc_interface, "-t", DISCOVER_TIMEOUT_S])
         .args(["cyclic", station, "--gsdml"])
         .arg(&tools.gsdml)
@@ -949,91 +945,6 @@ fn wait_for_text(file: &Path, text: &str, timeout: Duration) -> anyhow::Result<(
         std::thread::sleep(Duration::from_millis(100));
     }
     Ok(())
-}
-
-/// Runs `ip` with `args`.
-fn ip(args: &[&str]) -> anyhow::Result<()> {
-    let output = Command::new("ip")
-        .args(args)
-        .output()
-        .with_context(|| format!("cannot run ip {args:?}"))?;
-    if !output.status.success() {
-        bail!(
-            "ip {args:?}: {}",
-            String::from_utf8_lossy(&output.stderr).trim()
-        );
-    }
-    Ok(())
-}
-
-/// Two namespaces, PLC and device, joined by a veth pair; removed on drop.
-struct Namespaces {
-    plc: String,
-    device: String,
-    plc_interface: String,
-    device_interface: String,
-}
-
-impl Namespaces {
-    /// Namespaces and interfaces named after this process.
-    fn create() -> anyhow::Result<Self> {
-        let id = std::process::id();
-        // Built first, so that a failure below removes what was created.
-        let this = Self {
-            plc: format!("rcbplc{id}"),
-            device: format!("rcbdev{id}"),
-            plc_interface: format!("rcbva{id}"),
-            device_interface: format!("rcbvb{id}"),
-        };
-        ip(&["netns", "add", &this.plc])?;
-        ip(&["netns", "add", &this.device])?;
-        ip(&[
-            "link",
-            "add",
-            &this.plc_interface,
-            "type",
-            "veth",
-            "peer",
-            "name",
-            &this.device_interface,
-        ])?;
-        let device_address = format!("{DEVICE_IP}/24");
-        for (interface, namespace, address) in [
-            (&this.plc_interface, &this.plc, PLC_ADDRESS),
-            (&this.device_interface, &this.device, &device_address),
-        ] {
-            ip(&["link", "set", interface, "netns", namespace])?;
-            ip(&["-n", namespace, "link", "set", interface, "up"])?;
-            ip(&["-n", namespace, "addr", "add", address, "dev", interface])?;
-            ip(&["-n", namespace, "link", "set", "lo", "up"])?;
-        }
-        Ok(this)
-    }
-
-    /// `program` run inside `namespace` (`ip netns exec` replaces itself with it, so the
-    /// child's pid is the program's).
-    fn command(&self, namespace: &str, program: &Path) -> Command {
-        let mut command = Command::new("ip");
-        command.args(["netns", "exec", namespace]).arg(program);
-        command
-    }
-}
-
-impl Drop for Namespaces {
-    fn drop(&mut self) {
-        // Deleting a namespace deletes the veth end in it, and with it the pair; a veth
-        // pair still outside them (a failure before the move) is deleted by name.
-        let _ = Command::new("ip")
-            .args(["link", "del", &self.plc_interface])
-            .stderr(Stdio::null())
-            .status();
-        for namespace in [&self.plc, &self.device] {
-            let _ = Command::new("ip")
-                .args(["netns", "del", namespace])
-                .stderr(Stdio::null())
-                .status();
-        }
-    }
 }
 
 /// A child process stopped (SIGTERM, then SIGKILL) at the latest when dropped.

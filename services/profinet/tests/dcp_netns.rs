@@ -9,6 +9,7 @@
 //! installed into `target/profinet-venv` by `services/profinet/setup.sh` when missing.
 //! tshark is used when installed; under CI (`CI` set) its absence fails the test.
 
+use profinet::link::veth::VethPair;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -51,100 +52,10 @@ fn run(command: &mut Command) -> Output {
         .unwrap_or_else(|e| panic!("{command:?}: {e}"))
 }
 
-fn ip(args: &[&str]) {
-    let output = run(Command::new("ip").args(args));
-    assert!(
-        output.status.success(),
-        "ip {args:?}: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
-
-/// Two namespaces, PLC and device, joined by a veth pair; removed on drop.
-struct Namespaces {
-    plc: String,
-    device: String,
-    plc_interface: String,
-    device_interface: String,
-}
-
-impl Namespaces {
-    /// Namespaces and interfaces named after the process and `tag` (one per test).
-    fn create(tag: char) -> Self {
-        let id = std::process::id();
-        let namespaces = Self {
-            plc: format!("pnplc{tag}{id}"),
-            device: format!("pndev{tag}{id}"),
-            plc_interface: format!("pnva{tag}{id}"),
-            device_interface: format!("pnvb{tag}{id}"),
-        };
-        ip(&["netns", "add", &namespaces.plc]);
-        ip(&["netns", "add", &namespaces.device]);
-        ip(&[
-            "link",
-            "add",
-            &namespaces.plc_interface,
-            "type",
-            "veth",
-            "peer",
-            "name",
-            &namespaces.device_interface,
-        ]);
-        for (interface, namespace, address) in [
-            (
-                &namespaces.plc_interface,
-                &namespaces.plc,
-                "192.168.77.1/24",
-            ),
-            (
-                &namespaces.device_interface,
-                &namespaces.device,
-                "192.168.77.50/24",
-            ),
-        ] {
-            ip(&["link", "set", interface, "netns", namespace]);
-            ip(&["-n", namespace, "link", "set", interface, "up"]);
-            ip(&["-n", namespace, "addr", "add", address, "dev", interface]);
-            // The gateway and rc plc talk over the loopback of the PLC namespace.
-            ip(&["-n", namespace, "link", "set", "lo", "up"]);
-        }
-        namespaces
-    }
-
-    /// A command run inside `namespace` (`ip netns exec` replaces itself with it, so the
-    /// child's pid is the command's).
-    fn command(namespace: &str, program: &Path) -> Command {
-        let mut command = Command::new("ip");
-        command.args(["netns", "exec", namespace]).arg(program);
-        command
-    }
-
-    fn device_mac(&self) -> String {
-        let output = run(Command::new("ip").args([
-            "-n",
-            &self.device,
-            "-br",
-            "link",
-            "show",
-            &self.device_interface,
-        ]));
-        let text = String::from_utf8_lossy(&output.stdout).to_string();
-        text.split_whitespace()
-            .nth(2)
-            .unwrap_or_else(|| panic!("no MAC in {text:?}"))
-            .to_owned()
-    }
-}
-
-impl Drop for Namespaces {
-    fn drop(&mut self) {
-        // Deleting a namespace deletes the veth end in it, and with it the pair.
-        for namespace in [&self.plc, &self.device] {
-            let _ = Command::new("ip")
-                .args(["netns", "del", namespace])
-                .status();
-        }
-    }
+/// The veth pair of one test, tagged `tag`.
+fn namespaces(tag: char) -> VethPair {
+    VethPair::create(&format!("pn{tag}"), "192.168.77.1/24", "192.168.77.50/24")
+        .expect("network namespaces and a veth pair")
 }
 
 /// A child process stopped with SIGINT (then killed) on drop.
@@ -176,8 +87,8 @@ impl Drop for Running {
 }
 
 /// `profinet-dcp` in the device namespace, with `extra` options.
-fn start_device(namespaces: &Namespaces, store: &Path, extra: &[&str]) -> Running {
-    let child = Namespaces::command(
+fn start_device(namespaces: &VethPair, store: &Path, extra: &[&str]) -> Running {
+    let child = VethPair::command(
         &namespaces.device,
         Path::new(env!("CARGO_BIN_EXE_profinet-dcp")),
     )
@@ -206,9 +117,9 @@ fn start_device(namespaces: &Namespaces, store: &Path, extra: &[&str]) -> Runnin
 }
 
 /// profinet-py's CLI, run in the PLC namespace; returns its stdout, asserting success.
-fn profinet_py(venv: &Path, namespaces: &Namespaces, args: &[&str]) -> String {
+fn profinet_py(venv: &Path, namespaces: &VethPair, args: &[&str]) -> String {
     let output = run(
-        Namespaces::command(&namespaces.plc, &venv.join("bin/profinet"))
+        VethPair::command(&namespaces.plc, venv.join("bin/profinet"))
             .args(["-i", &namespaces.plc_interface, "-t", DISCOVER_TIMEOUT_S])
             .args(args),
     );
@@ -256,8 +167,8 @@ fn tshark() -> Option<PathBuf> {
 }
 
 /// Starts a capture of PROFINET frames in the PLC namespace; waits until it runs.
-fn start_capture(tshark: &Path, namespaces: &Namespaces, file: &Path) -> Running {
-    let child = Namespaces::command(&namespaces.plc, tshark)
+fn start_capture(tshark: &Path, namespaces: &VethPair, file: &Path) -> Running {
+    let child = VethPair::command(&namespaces.plc, tshark)
         .args([
             "-i",
             &namespaces.plc_interface,
@@ -305,7 +216,7 @@ fn profinet_py_discovers_renames_signals_and_resets_the_device() {
     }
     let venv = profinet_py_venv();
     let tshark = tshark();
-    let namespaces = Namespaces::create('d');
+    let namespaces = namespaces('d');
     let work = std::env::temp_dir().join(format!("profinet-dcp-netns-{}", std::process::id()));
     std::fs::create_dir_all(&work).expect("work folder");
     let store = work.join("station");
@@ -313,7 +224,7 @@ fn profinet_py_discovers_renames_signals_and_resets_the_device() {
     let mut capture = tshark
         .as_deref()
         .map(|tshark| start_capture(tshark, &namespaces, &capture_file));
-    let mac = namespaces.device_mac();
+    let mac = namespaces.device_mac().expect("device MAC");
     let mut device = start_device(&namespaces, &store, &[]);
 
     // Identify all finds our identity.
@@ -417,7 +328,7 @@ fn profinet_py_connects_and_exchanges_cyclic_data_with_the_srci_module() {
     }
     let venv = profinet_py_venv();
     let tshark = tshark();
-    let namespaces = Namespaces::create('c');
+    let namespaces = namespaces('c');
     let work = std::env::temp_dir().join(format!("profinet-rt-netns-{}", std::process::id()));
     std::fs::create_dir_all(&work).expect("work folder");
     let capture_file = work.join("rt.pcapng");
@@ -525,8 +436,8 @@ fn rc_binary() -> Option<PathBuf> {
 /// Python script without real-time priority: on a loaded 2-core machine it was seen to stall
 /// for 1.4 s, so the lifesign timeout is generous (this test is about the path, not its
 /// timing; the PROFINET watchdog still guards the link itself).
-fn rc_plc(rc: &Path, namespaces: &Namespaces, program: &Path, config_file: &Path) {
-    let output = run(Namespaces::command(&namespaces.plc, rc)
+fn rc_plc(rc: &Path, namespaces: &VethPair, program: &Path, config_file: &Path) {
+    let output = run(VethPair::command(&namespaces.plc, rc)
         .arg("plc")
         .arg(program)
         .args([
@@ -562,8 +473,8 @@ fn wait_for_acknowledged_alarm(gateway_log: &Path, controller_log: &Path, appear
 
 /// Kills the servo process of the controller started with `config_file` (its pid from
 /// `rc status`); the orchestrator restarts it and the interpreter reports ErrorPending.
-fn kill_servo(rc: &Path, namespaces: &Namespaces, config_file: &Path) {
-    let status = run(Namespaces::command(&namespaces.device, rc)
+fn kill_servo(rc: &Path, namespaces: &VethPair, config_file: &Path) {
+    let status = run(VethPair::command(&namespaces.device, rc)
         .arg("status")
         .arg("--config")
         .arg(config_file));
@@ -611,7 +522,7 @@ fn rc_plc_runs_the_demo_program_through_profinet_py_and_a_real_link() {
         return;
     };
     let venv = profinet_py_venv();
-    let namespaces = Namespaces::create('e');
+    let namespaces = namespaces('e');
     let work = std::env::temp_dir().join(format!("profinet-e2e-netns-{}", std::process::id()));
     std::fs::create_dir_all(&work).expect("work folder");
     let config_file = work.join("rc.toml");
@@ -647,7 +558,7 @@ fn rc_plc_runs_the_demo_program_through_profinet_py_and_a_real_link() {
     let controller_log = work.join("rc.log");
     let log = std::fs::File::create(&controller_log).expect("log file");
     let _controller = Running(
-        Namespaces::command(&namespaces.device, &rc)
+        VethPair::command(&namespaces.device, &rc)
             .arg("run")
             .arg("--config")
             .arg(&config_file)
@@ -667,7 +578,7 @@ fn rc_plc_runs_the_demo_program_through_profinet_py_and_a_real_link() {
     let log = std::fs::File::create(&gateway_log).expect("log file");
     let gsdml = repository().join("config/GSDML-V2.41-rc-SRCI-20261122.xml");
     let mut gateway = Running(
-        Namespaces::command(&namespaces.plc, &venv.join("bin/python"))
+        VethPair::command(&namespaces.plc, venv.join("bin/python"))
             .arg(repository().join("services/profinet/tests/srci_gateway.py"))
             .arg(&namespaces.plc_interface)
             .arg(FACTORY_NAME)
