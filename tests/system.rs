@@ -26,7 +26,7 @@ fn handshake_enable_and_moves_reach_their_targets() {
     assert!(data.supports(t::enable_robot::TYPE));
     assert!(data.supports(t::move_linear_absolute::TYPE));
     assert!(
-        !data.supports(t::move_depart_linear::TYPE),
+        !data.supports(common::UNIMPLEMENTED_TYPE),
         "only what is implemented"
     );
     reset_and_enable(&mut plc);
@@ -66,11 +66,7 @@ fn unsupported_command_gets_8f11_and_a_message() {
     initialize(&mut plc);
     let s = execute(
         &mut plc,
-        &Request::Raw {
-            command_type: t::move_depart_linear::TYPE,
-            execution_mode: 0,
-            payload: vec![0; t::move_depart_linear::request::LEN - 4],
-        },
+        &common::unimplemented_request(),
         Duration::from_secs(5),
     );
     assert_eq!(

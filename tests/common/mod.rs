@@ -456,3 +456,17 @@ pub fn exchange_configuration(enable: bool, lifesign_timeout_ms: u16) -> Request
 
 /// One change to a request's parameters, for tables of refused requests.
 pub type Edit<T> = fn(&mut T);
+
+/// A command type of the specification that the controller does not implement (answered
+/// ERROR 0x8F11), the one place the tests name it: change it here when it gets implemented.
+pub const UNIMPLEMENTED_TYPE: u16 = shared_types::srci::tables::move_depart_linear::TYPE;
+
+/// A request of [`UNIMPLEMENTED_TYPE`] with a zero payload of its table's length.
+pub fn unimplemented_request() -> Request {
+    use shared_types::srci::tables::move_depart_linear as unimplemented;
+    Request::Raw {
+        command_type: UNIMPLEMENTED_TYPE,
+        execution_mode: 0,
+        payload: vec![0; unimplemented::request::LEN - 4],
+    }
+}

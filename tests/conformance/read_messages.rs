@@ -64,11 +64,7 @@ fn messages_are_delivered_one_at_a_time_and_acknowledged_by_msg_id() {
     assert_eq!(r.u8(rm::response::MSG_ID), 0, "no error yet");
     assert_eq!(r.u8(rm::response::NUMBER_OF_ACTIVE_ERRORS), 0);
 
-    let unsupported = Request::Raw {
-        command_type: shared_types::srci::tables::move_depart_linear::TYPE,
-        execution_mode: 0,
-        payload: Vec::new(),
-    };
+    let unsupported = crate::common::unimplemented_request();
     raise(&mut plc, &unsupported, code::NOT_IMPLEMENTED);
     let b = response_when(&mut plc, h, |r| r.u8(rm::response::MSG_ID) != 0);
     let r = PayloadReader::new(&b);

@@ -7,8 +7,7 @@ use plc_client::Request;
 use shared_types::srci::message::{code, execution_mode, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
 use shared_types::srci::tables::{
-    create_server_log as csl, exchange_configuration as xc, move_depart_linear as mdl,
-    read_server_log as rsl,
+    create_server_log as csl, exchange_configuration as xc, read_server_log as rsl,
 };
 
 use crate::common::{
@@ -44,11 +43,7 @@ fn a_server_log_is_created_counted_and_read_line_by_line() {
     // Something for the log: a command the controller does not implement.
     expect_error(
         &mut plc,
-        &Request::Raw {
-            command_type: mdl::TYPE,
-            execution_mode: 0,
-            payload: vec![0; mdl::request::LEN - 4],
-        },
+        &crate::common::unimplemented_request(),
         code::NOT_IMPLEMENTED,
     );
     let created = expect_done(
