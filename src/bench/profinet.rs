@@ -11,8 +11,12 @@
 //! ends of the veth (a sender's own frames do not show in a capture on its interface, so
 //! each end captures what it receives: the PLC's output frames as they reach our device,
 //! our input frames as they reach the PLC): every output frame whose telegram carries a new
-//! SEQ is matched to the first input frame whose telegram acknowledges it. Needs root, `ip`, tshark and the venv; without them the
-//! row is skipped with one line saying why.
+//! SEQ is matched to the first input frame whose telegram acknowledges it. The device
+//! times the same requests on its own monotonic clock (`fieldbus::profinet_timing`) and
+//! logs, when the session ends, our processing apart from the wait for its next input
+//! frame: the row prints that too, so the phase between the two cycles is not taken for our
+//! time. Needs root, `ip`, tshark and the venv; without them the row is skipped with one
+//! line saying why.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -20,6 +24,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
+use fieldbus::profinet_timing::REPLY_TIMING_LOG;
 use orchestrator::child_process;
 use plc_client::engine::CyclicSelection;
 use profinet::link::veth::VethPair;
@@ -167,10 +172,64 @@ struct PeriodResult {
 /// What one reply latency period gave.
 struct LatencyResult {
     period_ms: u64,
-    /// The requests matched to their replies and `rc plc`'s result line, or why the period
-    /// could not be measured.
-    outcome: Result<(Replies, String), String>,
+    /// The requests matched to their replies, the device's own timing and `rc plc`'s
+    /// result line, or why the period could not be measured.
+    outcome: Result<Latency, String>,
 }
+
+/// The reply latency of one period.
+struct Latency {
+    /// On the wire, from the captures.
+    replies: Replies,
+    /// In the device, from its log; `None` when it logged none (said in the row).
+    device: Option<DeviceTiming>,
+    /// `rc plc`'s result line.
+    rc_plc: String,
+}
+
+/// The reply timing the device logged for one session, in µs: p50, p99 and maximum of
+/// our processing (output frame received → answer at hand) and of the wait for the input
+/// frame that carries the answer.
+#[derive(Debug, PartialEq, Eq)]
+struct DeviceTiming {
+    requests: u64,
+    processing: [u64; 3],
+    cycle_wait: [u64; 3],
+}
+
+/// The device's last reply timing in the controller's log `text`.
+fn parse_device_timing(text: &str) -> Option<DeviceTiming> {
+    let line = text
+        .lines()
+        .rev()
+        .find(|line| line.contains(REPLY_TIMING_LOG))?;
+    let value = |key: &str| -> Option<u64> {
+        line.split_whitespace().find_map(|token| {
+            token
+                .strip_prefix(key)?
+                .strip_prefix('=')?
+                .trim_matches(|c: char| !c.is_ascii_digit())
+                .parse()
+                .ok()
+        })
+    };
+    let three = |quantity: &str| -> Option<[u64; 3]> {
+        Some([
+            value(&format!("{quantity}_p50_us"))?,
+            value(&format!("{quantity}_p99_us"))?,
+            value(&format!("{quantity}_max_us"))?,
+        ])
+    };
+    Some(DeviceTiming {
+        requests: value("requests")?,
+        processing: three("processing")?,
+        cycle_wait: three("cycle_wait")?,
+    })
+}
+
+/// How long the device may take to log its timing once the PLC went silent: its
+/// watchdog (at most a few cycles) ends the session.
+const DEVICE_TIMING_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// The frame periods, then the reply latencies (each period's failure kept in its result).
 fn measure(
@@ -243,6 +302,7 @@ fn measure(
         rc: &exe,
         config_file: &config_file,
         dir: &dir,
+        log: &log_path,
     };
     let latencies = LATENCY_PERIODS_MS
         .into_iter()
@@ -270,13 +330,17 @@ struct LatencyRun<'a> {
     rc: &'a Path,
     config_file: &'a Path,
     dir: &'a Path,
+    /// The controller's log, where the device's timing appears.
+    log: &'a Path,
 }
 
 impl LatencyRun<'_> {
     /// Runs the gateway at `period_ms` and `rc plc` through it while capturing on the
-    /// device's interface; the requests matched to their replies and `rc plc`'s result.
-    fn measure(&self, period_ms: u64) -> anyhow::Result<(Replies, String)> {
+    /// device's interface; the requests matched to their replies, the device's timing and
+    /// `rc plc`'s result.
+    fn measure(&self, period_ms: u64) -> anyhow::Result<Latency> {
         let (namespaces, tools) = (self.namespaces, self.tools);
+        let timings_before = count_in_file(self.log, REPLY_TIMING_LOG);
         let program = self.dir.join("reply-latency.toml");
         std::fs::write(&program, latency_program(LATENCY_REQUESTS))
             .with_context(|| format!("cannot write {}", program.display()))?;
@@ -334,6 +398,17 @@ impl LatencyRun<'_> {
             capture.stop()?;
         }
         gateway.stop()?;
+        // The device logs its timing when the session ends (by its watchdog, now).
+        let device = wait_for_occurrences(
+            self.log,
+            REPLY_TIMING_LOG,
+            timings_before + 1,
+            DEVICE_TIMING_TIMEOUT,
+        )
+        .ok()
+        .and_then(|()| std::fs::read_to_string(self.log).ok())
+        .as_deref()
+        .and_then(parse_device_timing);
         let rc_plc = outcome(
             "rc plc",
             &String::from_utf8_lossy(&output.stdout),
@@ -353,7 +428,11 @@ impl LatencyRun<'_> {
             );
         }
         let frames = merge_captures(captures);
-        Ok((match_replies(&frames, &layout, self.module_size), rc_plc))
+        Ok(Latency {
+            replies: match_replies(&frames, &layout, self.module_size),
+            device,
+            rc_plc,
+        })
     }
 }
 
@@ -889,12 +968,39 @@ fn render(periods: &[PeriodResult], latencies: &[LatencyResult]) -> String {
     );
     for l in latencies {
         let line = match &l.outcome {
-            Ok((replies, rc_plc)) => format!("{}; {rc_plc}", replies_line(replies)),
+            Ok(latency) => format!(
+                "{}; {}\n         in the device: {}",
+                replies_line(&latency.replies),
+                latency.rc_plc,
+                device_line(latency.device.as_ref())
+            ),
             Err(why) => format!("not measured: {why}"),
         };
         let _ = writeln!(text, "  {:>2} ms  {line}", l.period_ms);
     }
     text
+}
+
+/// The device's own timing of the requests, or why there is none.
+fn device_line(timing: Option<&DeviceTiming>) -> String {
+    let Some(timing) = timing else {
+        return "no timing in the controller's log".to_owned();
+    };
+    let ms3 = |[p50, p99, max]: [u64; 3]| {
+        format!(
+            "p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms",
+            p50 as f64 / 1e3,
+            p99 as f64 / 1e3,
+            max as f64 / 1e3
+        )
+    };
+    format!(
+        "processing (output frame received -> answer at hand) {}; wait for the input \
+         frame {} ({} requests)",
+        ms3(timing.processing),
+        ms3(timing.cycle_wait),
+        timing.requests
+    )
 }
 
 /// The figures of `replies`, with what could not be matched; no figures at all when nothing
@@ -937,8 +1043,18 @@ fn count_in_file(file: &Path, text: &str) -> usize {
 
 /// Waits until `file` contains `text`.
 fn wait_for_text(file: &Path, text: &str, timeout: Duration) -> anyhow::Result<()> {
+    wait_for_occurrences(file, text, 1, timeout)
+}
+
+/// Waits until `file` contains `text` at least `count` times.
+fn wait_for_occurrences(
+    file: &Path,
+    text: &str,
+    count: usize,
+    timeout: Duration,
+) -> anyhow::Result<()> {
     let deadline = Instant::now() + timeout;
-    while count_in_file(file, text) == 0 {
+    while count_in_file(file, text) < count {
         if Instant::now() > deadline {
             bail!("{text:?} did not appear within {timeout:?}");
         }
@@ -1083,15 +1199,20 @@ mod tests {
             &[
                 LatencyResult {
                     period_ms: 8,
-                    outcome: Ok((
-                        Replies {
+                    outcome: Ok(Latency {
+                        replies: Replies {
                             latencies: vec![9_000_000, 10_000_000],
                             next_frame: 2,
                             unanswered: 1,
                             ..Replies::default()
                         },
-                        "rc plc: result: SUCCESS".into(),
-                    )),
+                        device: Some(DeviceTiming {
+                            requests: 2,
+                            processing: [210, 400, 900],
+                            cycle_wait: [6_500, 7_800, 7_900],
+                        }),
+                        rc_plc: "rc plc: result: SUCCESS".into(),
+                    }),
                 },
                 LatencyResult {
                     period_ms: 2,
@@ -1105,6 +1226,12 @@ mod tests {
             "   8 ms  n     2  p50   9.000 ms  p99  10.000 ms  max  10.000 ms; \
              2/2 in the first input frame after the request; 1 requests without an acknowledging reply; rc plc: result: SUCCESS\n"
         ));
+        assert!(text.contains(
+            "in the device: processing (output frame received -> answer at hand) p50 0.210 ms, \
+             p99 0.400 ms, max 0.900 ms; wait for the input frame p50 6.500 ms, p99 7.800 ms, \
+             max 7.900 ms (2 requests)\n"
+        ));
+        assert_eq!(device_line(None), "no timing in the controller's log");
         assert!(text.contains("   2 ms  not measured: the gateway died\n"));
         assert_eq!(
             replies_line(&Replies {
@@ -1114,6 +1241,28 @@ mod tests {
             "no request could be matched to a reply in the capture; 2 requests not timed \
              (the ACK already equalled the new SEQ)"
         );
+    }
+
+    #[test]
+    fn the_device_timing_is_read_from_the_last_line_of_the_log() {
+        let older = format!(
+            "INFO fieldbus: {REPLY_TIMING_LOG} (...) requests=5 processing_p50_us=1 \
+             processing_p99_us=2 processing_max_us=3 cycle_wait_p50_us=4 cycle_wait_p99_us=5 \
+             cycle_wait_max_us=6 dropped=0"
+        );
+        let newer = older.replace("requests=5", "requests=100");
+        let log = format!("{older}\nother line\n{newer}\n");
+        assert_eq!(
+            parse_device_timing(&log),
+            Some(DeviceTiming {
+                requests: 100,
+                processing: [1, 2, 3],
+                cycle_wait: [4, 5, 6],
+            })
+        );
+        assert_eq!(parse_device_timing("nothing here\n"), None);
+        let cut = newer.replace("cycle_wait_max_us=6", "");
+        assert_eq!(parse_device_timing(&cut), None);
     }
 
     #[test]

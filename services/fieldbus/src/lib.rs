@@ -10,6 +10,7 @@
 pub mod assembler;
 mod bridge;
 pub mod holdover;
+pub mod profinet_timing;
 pub mod profinet_transport;
 mod tcp;
 

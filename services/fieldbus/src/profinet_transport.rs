@@ -7,36 +7,48 @@
 //! end are the link events the interpreter knows from TCP clients); frames that stop or
 //! turn invalid end it as a lost connection, and the interpreter stops the robot as on a
 //! lifesign timeout. The hold-over during an interpreter handover is the gateway's.
+//!
+//! The device also waits on the interpreter's answer event, so that an answer is taken as
+//! soon as it exists, and times each request inside the device ([`ReplyTiming`]): our
+//! processing apart from the wait for the next input frame, logged when a session ends.
 
 use std::net::Ipv4Addr;
+use std::os::fd::BorrowedFd;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
+use iceoryx2::port::listener::Listener;
+use iceoryx2::prelude::{FileDescriptorBased, ipc::Service as Ipc};
 use profinet::cm::ar::CmDevice;
+use profinet::cm::im::ImRecords;
 use profinet::cm::record::Identification;
 use profinet::dcp::responder::DcpResponder;
 use profinet::dcp::station::{DeviceIdentity, IpParameter, NameOfStation, StationParameters};
 use profinet::device::{DEVICE_ID, DeviceModel, TYPE_OF_STATION, VENDOR_ID};
-use profinet::link::file_store::FileStore;
+use profinet::link::address::InterfaceAddresses;
+use profinet::link::file_store::{FileStore, ImFile};
 use profinet::link::io_device::{DeviceEvent, IoDevice, IoDeviceError};
 use profinet::link::raw_socket::{RawSocket, RawSocketError};
 use profinet::rt::c_sdu::SrciModuleSize;
-use shared_types::bus::Bus;
+use shared_types::bus::{Bus, BusError};
 use shared_types::config::{Config, ProfinetConfig};
 use shared_types::health::{HealthReporter, Service};
-use shared_types::ipc::{LinkEvent, TELEGRAM_CAPACITY};
+use shared_types::ipc::{LinkEvent, TELEGRAM_CAPACITY, topics};
 use shared_types::srci::telegram::{RobotHeader, status_bit};
 use shared_types::time::monotonic_ns;
 
 use crate::FieldbusError;
 use crate::bridge::TelegramBridge;
 use crate::holdover::HoldOver;
+use crate::profinet_timing::{REPLY_TIMING_LOG, ReplyTiming};
 
 /// Longest wait of one device poll, so that shutdown and the heartbeat are served.
 const POLL_INTERVAL: Duration = Duration::from_millis(5);
 /// Name of the file of the permanent DCP values in the data folder.
 const STATION_FILE: &str = "profinet-station";
+/// Name of the file of the I&M1..4 records in the data folder.
+const IM_FILE: &str = "profinet-im";
 
 /// The PROFINET transport cannot start or run.
 #[derive(Debug, thiserror::Error)]
@@ -59,7 +71,7 @@ pub enum ProfinetError {
 
 /// The IO-device bound to the bus.
 pub struct ProfinetTransport {
-    device: IoDevice<FileStore>,
+    device: IoDevice<FileStore, InterfaceAddresses>,
     bridge: TelegramBridge,
     holdover: HoldOver,
     /// The robot→PLC telegram the input frames carry.
@@ -68,6 +80,9 @@ pub struct ProfinetTransport {
     /// The PLC session (IO AR) in progress; 0 before the first.
     connection: u32,
     connected: bool,
+    /// The interpreter's answer event, polled with the device's sockets.
+    reply_wake: Listener<Ipc>,
+    timing: ReplyTiming,
     // Declared last: the ports above are dropped before their node.
     bus: Bus,
 }
@@ -88,19 +103,25 @@ impl ProfinetTransport {
             device_instance: 0x0001,
             type_of_station: TYPE_OF_STATION.to_owned(),
         };
-        let store = FileStore::new(station_file(config, pn));
-        let responder = DcpResponder::new(identity, factory, store);
+        let data_dir = data_dir(config, pn);
+        let store = FileStore::new(data_dir.join(STATION_FILE));
+        let interface = InterfaceAddresses::new(&pn.interface);
+        let responder = DcpResponder::new(identity, factory, store, interface);
         let device = CmDevice {
             model: DeviceModel::srci(size),
             identification: Identification::robot_controller(
                 &config.main.interpreter.serial_number,
             ),
+            im: ImRecords::default(),
             mac,
             activity: profinet::cm::ar::activity(mac, start_seed()),
         };
-        let device = IoDevice::open(socket, responder, device).map_err(ProfinetError::from)?;
+        let im_file = ImFile::new(data_dir.join(IM_FILE));
+        let device = IoDevice::open(socket, responder, device, Some(im_file))
+            .map_err(ProfinetError::from)?;
         let bus = Bus::new(&config.main.instance, "fieldbus")?;
         let bridge = TelegramBridge::open(&bus)?;
+        let reply_wake = bus.listener(topics::R2P)?;
         let input_len = usize::from(fb.telegram_length_rob_to_plc).min(TELEGRAM_CAPACITY);
         Ok(Self {
             device,
@@ -110,6 +131,8 @@ impl ProfinetTransport {
             input_len,
             connection: 0,
             connected: false,
+            reply_wake,
+            timing: ReplyTiming::default(),
             bus,
         })
     }
@@ -126,11 +149,21 @@ impl ProfinetTransport {
                 .is_ok_and(|header| header.status & status_bit::ERROR_PENDING != 0);
             let mut failure = None;
             let mut telegrams = 0u32;
-            let (bridge, connection, connected) =
-                (&mut self.bridge, &mut self.connection, &mut self.connected);
+            let (bridge, connection, connected, timing) = (
+                &mut self.bridge,
+                &mut self.connection,
+                &mut self.connected,
+                &mut self.timing,
+            );
+            // SAFETY: the descriptor belongs to `reply_wake`, which outlives this poll
+            // and is not closed by it.
+            let wake = unsafe {
+                BorrowedFd::borrow_raw(self.reply_wake.file_descriptor().native_handle())
+            };
             self.device
                 .poll(
                     POLL_INTERVAL,
+                    Some(wake),
                     &self.input[..self.input_len],
                     station_problem,
                     |event| {
@@ -149,12 +182,18 @@ impl ProfinetTransport {
                             }
                             DeviceEvent::Output(telegram) => {
                                 telegrams += 1;
+                                let received_ns = monotonic_ns();
                                 bridge
-                                    .forward(*connection, telegram, monotonic_ns())
-                                    .map(|_| ())
+                                    .forward(*connection, telegram, received_ns)
+                                    .map(|counter| timing.request(counter, received_ns))
+                            }
+                            DeviceEvent::InputSent => {
+                                timing.input_sent(monotonic_ns());
+                                Ok(())
                             }
                             DeviceEvent::Ended(end) => {
                                 tracing::info!(?end, "PLC session over PROFINET ended");
+                                log_reply_timing(timing);
                                 *connected = false;
                                 bridge.link_event(*connection, LinkEvent::Disconnected)
                             }
@@ -173,7 +212,9 @@ impl ProfinetTransport {
                 self.hold_over_if_due();
             }
         }
+        self.device.stop().map_err(ProfinetError::from)?;
         if self.connected {
+            log_reply_timing(&mut self.timing);
             self.bridge
                 .link_event(self.connection, LinkEvent::Disconnected)?;
         }
@@ -182,6 +223,14 @@ impl ProfinetTransport {
 
     /// Takes the interpreter's newest answer (or its handover notice) into the input data.
     fn take_reply(&mut self) -> Result<(), FieldbusError> {
+        // The wake-ups only end the device's wait (the answer itself is the newest
+        // sample); drained without blocking, so that the descriptor is quiet until the
+        // next answer.
+        self.reply_wake.try_wait(|_| {}).map_err(|error| BusError {
+            action: "drain the wake-ups of",
+            service: topics::R2P.to_owned(),
+            detail: format!("{error:?}"),
+        })?;
         let Some(reply) = self.bridge.latest_reply()? else {
             return Ok(());
         };
@@ -193,6 +242,7 @@ impl ProfinetTransport {
         if self.holdover.active() {
             tracing::info!("the interpreter answers again: hold-over ended");
         }
+        self.timing.answer(reply.counter, monotonic_ns());
         let bytes = &reply.bytes[..self.input_len];
         self.input[..self.input_len].copy_from_slice(bytes);
         self.holdover.remember(bytes);
@@ -210,6 +260,25 @@ impl ProfinetTransport {
             self.input[..n].copy_from_slice(&answer[..n]);
         }
     }
+}
+
+/// Logs the reply timing of the session that ended (read back by `rc bench latency`).
+fn log_reply_timing(timing: &mut ReplyTiming) {
+    let Some(summary) = timing.summary() else {
+        return;
+    };
+    let us = |ns: u64| ns / 1_000;
+    tracing::info!(
+        requests = summary.requests,
+        processing_p50_us = us(summary.processing.p50),
+        processing_p99_us = us(summary.processing.p99),
+        processing_max_us = us(summary.processing.max),
+        cycle_wait_p50_us = us(summary.cycle_wait.p50),
+        cycle_wait_p99_us = us(summary.cycle_wait.p99),
+        cycle_wait_max_us = us(summary.cycle_wait.max),
+        dropped = summary.dropped,
+        "{REPLY_TIMING_LOG} (output frame received -> answer at hand -> input frame sent)"
+    );
 }
 
 /// The SRCI module of `bytes` per direction.
@@ -256,14 +325,13 @@ fn factory_parameters(pn: &ProfinetConfig) -> Result<StationParameters, Profinet
     })
 }
 
-/// Where the permanent DCP values are kept.
-fn station_file(config: &Config, pn: &ProfinetConfig) -> PathBuf {
-    let dir = if pn.data_dir.is_empty() {
+/// Where the permanent DCP values and the I&M records are kept.
+fn data_dir(config: &Config, pn: &ProfinetConfig) -> PathBuf {
+    if pn.data_dir.is_empty() {
         config.main.data_dir()
     } else {
         PathBuf::from(&pn.data_dir)
-    };
-    dir.join(STATION_FILE)
+    }
 }
 
 /// Differs at every start, so that the device's calls of one run are not taken for

@@ -6,17 +6,25 @@
 //! pure and pinned to S7 and p-net captures. What is ours is the decision when an alarm is
 //! due and the AR's negotiated parameters. Diagnosis alarms go on the low-priority channel
 //! (FrameID 0xFE01), as p-net and the S7 send them.
+//!
+//! When the AR ends the device closes its alarm endpoint with an ERR-RTA-PDU on that
+//! channel ([`DiagnosisAlarms::close`]), PNIOStatus CF 81 FD and the abort reason as
+//! ErrorCode2 (RTA_ERR_CLS_PROTOCOL), as p-net does for every AR that ends, a Release
+//! included (0x0F, "AR release.ind received"): the controller's alarm endpoint then
+//! closes at once instead of by its own timeout. After the controller's own ERR-RTA the
+//! endpoint is closed already and nothing is sent.
 
 use std::time::{Duration, Instant};
 
 use pnio::alarm::{AlarmAction, AlarmChannel, AlarmChannelConfig, AlarmReq, Priority};
 use pnio::cm::block::AlarmCrBlockReq;
+use pnio::cm::{AbortReason, PnioStatus};
 use pnio::config::{Direction, Slot};
 use pnio::diag::{ChannelError, DiagStore, Diagnosis, Severity, SubmoduleInfo, WHOLE_SUBMODULE};
 use pnio::eth::MacAddr;
 
 use crate::device::{SRCI_SLOT, SubmoduleModel};
-use crate::ethernet::MacAddress;
+use crate::ethernet::{MIN_FRAME_LEN, MacAddress};
 
 /// The unit of RTATimeoutFactor.
 const RTA_TIMEOUT_UNIT: Duration = Duration::from_millis(100);
@@ -64,9 +72,65 @@ pub enum AlarmOutput {
         /// True for the appearing alarm.
         appeared: bool,
     },
-    /// The controller never acknowledged, or aborted the alarm channel with ERR-RTA:
-    /// the AR must end.
-    AbortAr,
+    /// The alarm channel failed: the AR must end.
+    AbortAr(AlarmFailure),
+}
+
+/// How the alarm channel failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AlarmFailure {
+    /// An alarm was not acknowledged after all retries.
+    Unacknowledged,
+    /// The controller closed the channel with an ERR-RTA-PDU.
+    ClosedByController,
+}
+
+/// Why the device closes the alarm endpoint of an AR that ends: the ErrorCode2 of the
+/// ERR-RTA-PDU's PNIOStatus (the abort reasons of RTA_ERR_CLS_PROTOCOL).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AlarmClose {
+    /// The consumer's watchdog or data-hold time expired (0x05).
+    ConsumerExpired,
+    /// An alarm was not acknowledged (0x08, "AR alarm-send.cnf(-)").
+    AlarmUnacknowledged,
+    /// ApplicationReady was never confirmed (0x0C, "AR rpc-client call.cnf(-)").
+    ApplicationReadyUnanswered,
+    /// The device ended the AR for another reason (0x0D, "AR abort.req").
+    Aborted,
+    /// The controller connected again (0x0E, "AR re-run aborts existing").
+    Replaced,
+    /// The controller released the AR (0x0F, "AR release.ind received").
+    Released,
+    /// The device stops (0x10, "AR device deactivated").
+    DeviceStops,
+}
+
+impl AlarmClose {
+    /// ErrorCode2 of the PNIOStatus.
+    pub fn code(self) -> u8 {
+        match self {
+            AlarmClose::ConsumerExpired => 0x05,
+            AlarmClose::AlarmUnacknowledged => 0x08,
+            AlarmClose::ApplicationReadyUnanswered => 0x0c,
+            AlarmClose::Aborted => 0x0d,
+            AlarmClose::Replaced => 0x0e,
+            AlarmClose::Released => 0x0f,
+            AlarmClose::DeviceStops => 0x10,
+        }
+    }
+}
+
+/// The diagnosis of the SRCI submodule while the robot has an error: a fault of the
+/// whole submodule, both directions. The alarm announces it; the diagnosis records
+/// ([`crate::cm::diagnosis`]) report it while it lasts.
+pub fn robot_error_diagnosis() -> Diagnosis {
+    Diagnosis {
+        slot: Slot(SRCI_SLOT),
+        channel: WHOLE_SUBMODULE,
+        error: ChannelError::Error,
+        severity: Severity::Fault,
+        direction: Direction::InputOutput,
+    }
 }
 
 /// Alarm ids handed to the channel: which of the two alarms was acknowledged.
@@ -131,13 +195,7 @@ impl DiagnosisAlarms {
         }
         self.robot_error = error;
         let notification = if error {
-            self.diagnoses.raise(Diagnosis {
-                slot: Slot(SRCI_SLOT),
-                channel: WHOLE_SUBMODULE,
-                error: ChannelError::Error,
-                severity: Severity::Fault,
-                direction: Direction::InputOutput,
-            })
+            self.diagnoses.raise(robot_error_diagnosis())
         } else {
             self.diagnoses
                 .clear(Slot(SRCI_SLOT), WHOLE_SUBMODULE, ChannelError::Error)
@@ -170,6 +228,16 @@ impl DiagnosisAlarms {
         outputs(self.channel.on_tick(now))
     }
 
+    /// The ERR-RTA-PDU that closes the alarm endpoint when the AR ends for `reason`
+    /// (with the channel's current sequence numbers); the alarms end with it.
+    pub fn close(mut self, reason: AlarmClose) -> Vec<u8> {
+        let mut frame = self.channel.err_rta(PnioStatus::rta_abort(reason.code()));
+        // An ERR-RTA is shorter than the shortest Ethernet frame; padded here so that
+        // an interface that does not pad (veth) sends a valid frame too.
+        frame.resize(frame.len().max(MIN_FRAME_LEN), 0);
+        frame
+    }
+
     /// When [`Self::on_tick`] must be called next.
     pub fn deadline(&self) -> Option<Instant> {
         self.channel.next_deadline()
@@ -184,7 +252,10 @@ fn outputs(actions: Vec<AlarmAction>) -> Vec<AlarmOutput> {
             AlarmAction::Acked { id, .. } => Some(AlarmOutput::Acknowledged {
                 appeared: id == ID_APPEARS,
             }),
-            AlarmAction::Abort(_) => Some(AlarmOutput::AbortAr),
+            AlarmAction::Abort(AbortReason::ControllerErrRta(_)) => {
+                Some(AlarmOutput::AbortAr(AlarmFailure::ClosedByController))
+            }
+            AlarmAction::Abort(_) => Some(AlarmOutput::AbortAr(AlarmFailure::Unacknowledged)),
             AlarmAction::UnexpectedRx => None,
         })
         .collect()
@@ -299,7 +370,10 @@ mod tests {
         }
         assert_eq!(at, t0 + Duration::from_millis(300));
         let deadline = alarms.deadline().unwrap();
-        assert_eq!(alarms.on_tick(deadline), [AlarmOutput::AbortAr]);
+        assert_eq!(
+            alarms.on_tick(deadline),
+            [AlarmOutput::AbortAr(AlarmFailure::Unacknowledged)]
+        );
     }
 
     #[test]
@@ -308,7 +382,47 @@ mod tests {
         let mut alarms = alarms();
         alarms.robot_error(true, t0);
         let err_rta = testdata::frame("alarm_err_rta_cpu");
-        assert_eq!(alarms.on_frame(&err_rta, t0), [AlarmOutput::AbortAr]);
+        assert_eq!(
+            alarms.on_frame(&err_rta, t0),
+            [AlarmOutput::AbortAr(AlarmFailure::ClosedByController)]
+        );
+    }
+
+    #[test]
+    fn a_released_ar_closes_the_alarm_endpoint_with_err_rta() {
+        let t0 = Instant::now();
+        let mut alarms = alarms();
+        // One alarm sent first: the ERR-RTA carries the sequence number it used.
+        let data = sent(&alarms.robot_error(true, t0));
+        let frame = alarms.close(AlarmClose::Released);
+        let pdu = parse_frame(&frame).unwrap();
+        assert_eq!(pdu.priority, Priority::Low);
+        assert_eq!(pdu.header.pdu_type, PduType::Err);
+        assert_eq!(pdu.header.send_seq, data[0].header.send_seq);
+        assert_eq!(
+            pdu.body,
+            RtaBody::Err(PnioStatus::new(0xcf, 0x81, 0xfd, 0x0f))
+        );
+        // To the controller, from the device (FrameID 0xFE01: parsed as Low above).
+        assert_eq!(frame[..6], S7.0);
+        assert_eq!(frame[6..12], DEVICE.0);
+        assert_eq!(frame.len(), MIN_FRAME_LEN);
+    }
+
+    #[test]
+    fn every_close_reason_has_its_abort_code() {
+        let codes: Vec<u8> = [
+            AlarmClose::ConsumerExpired,
+            AlarmClose::AlarmUnacknowledged,
+            AlarmClose::ApplicationReadyUnanswered,
+            AlarmClose::Aborted,
+            AlarmClose::Replaced,
+            AlarmClose::Released,
+            AlarmClose::DeviceStops,
+        ]
+        .map(AlarmClose::code)
+        .to_vec();
+        assert_eq!(codes, [0x05, 0x08, 0x0c, 0x0d, 0x0e, 0x0f, 0x10]);
     }
 
     #[test]

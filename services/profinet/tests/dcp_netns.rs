@@ -88,41 +88,59 @@ impl Drop for Running {
 
 /// `profinet-dcp` in the device namespace, with `extra` options.
 fn start_device(namespaces: &VethPair, store: &Path, extra: &[&str]) -> Running {
-    let child = VethPair::command(
+    let device = VethPair::command(
         &namespaces.device,
         Path::new(env!("CARGO_BIN_EXE_profinet-dcp")),
-    )
-    .args(["--interface", &namespaces.device_interface])
-    .args(["--name", FACTORY_NAME])
-    .args([
-        "--ip",
-        DEVICE_IP,
-        "--netmask",
-        "255.255.255.0",
-        "--gateway",
-        "0.0.0.0",
-    ])
-    .arg("--store")
-    .arg(store)
-    .args(extra)
-    .env("RUST_LOG", "info")
-    .stdout(Stdio::null())
-    .stderr(Stdio::inherit())
-    .spawn()
-    .expect("start profinet-dcp");
+    );
+    start_device_with(device, namespaces, store, extra, Stdio::null())
+}
+
+/// `command` (profinet-dcp, possibly behind a wrapper) with the test's interface, factory
+/// values, `store` and `extra` options, its log (standard output) to `log`.
+fn start_device_with(
+    mut command: Command,
+    namespaces: &VethPair,
+    store: &Path,
+    extra: &[&str],
+    log: Stdio,
+) -> Running {
+    let child = command
+        .args(["--interface", &namespaces.device_interface])
+        .args(["--name", FACTORY_NAME])
+        .args([
+            "--ip",
+            DEVICE_IP,
+            "--netmask",
+            "255.255.255.0",
+            "--gateway",
+            "0.0.0.0",
+        ])
+        .arg("--store")
+        .arg(store)
+        .args(extra)
+        .env("RUST_LOG", "info")
+        .stdout(log)
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("start profinet-dcp");
     // The socket is open long before the first request: profinet-py's own start-up takes
     // longer than ours; a short pause keeps the first Identify from racing it.
     std::thread::sleep(Duration::from_millis(300));
     Running(child)
 }
 
-/// profinet-py's CLI, run in the PLC namespace; returns its stdout, asserting success.
-fn profinet_py(venv: &Path, namespaces: &VethPair, args: &[&str]) -> String {
-    let output = run(
+/// profinet-py's CLI, run in the PLC namespace.
+fn profinet_py_output(venv: &Path, namespaces: &VethPair, args: &[&str]) -> Output {
+    run(
         VethPair::command(&namespaces.plc, venv.join("bin/profinet"))
             .args(["-i", &namespaces.plc_interface, "-t", DISCOVER_TIMEOUT_S])
             .args(args),
-    );
+    )
+}
+
+/// profinet-py's CLI, run in the PLC namespace; returns its stdout, asserting success.
+fn profinet_py(venv: &Path, namespaces: &VethPair, args: &[&str]) -> String {
+    let output = profinet_py_output(venv, namespaces, args);
     let stdout = String::from_utf8_lossy(&output.stdout).to_string();
     assert!(
         output.status.success(),
@@ -300,6 +318,193 @@ fn profinet_py_discovers_renames_signals_and_resets_the_device() {
     let _ = std::fs::remove_dir_all(&work);
 }
 
+/// `ip -j` output of the device namespace (`ip -n NS -j ARGS`), as text.
+fn device_ip_json(namespaces: &VethPair, args: &[&str]) -> String {
+    let output = run(Command::new("ip")
+        .args(["-n", &namespaces.device, "-j"])
+        .args(args));
+    assert!(output.status.success(), "ip {args:?} failed");
+    String::from_utf8_lossy(&output.stdout).to_string()
+}
+
+/// The IPv4 addresses of the device's interface, as `a.b.c.d/len`.
+fn device_addresses(namespaces: &VethPair) -> Vec<String> {
+    let json = device_ip_json(
+        namespaces,
+        &["-4", "addr", "show", "dev", &namespaces.device_interface],
+    );
+    // `"local":"192.168.77.50","prefixlen":24` for each address.
+    json.split("\"local\":\"")
+        .skip(1)
+        .filter_map(|rest| {
+            let (address, rest) = rest.split_once('"')?;
+            let prefix = rest.split("\"prefixlen\":").nth(1)?;
+            let digits: String = prefix.chars().take_while(char::is_ascii_digit).collect();
+            Some(format!("{address}/{digits}"))
+        })
+        .collect()
+}
+
+/// The record at `index` of slot/subslot, read by profinet-py over UDP from the IP the
+/// device reports in DCP: the hex digits it prints.
+fn read_record(
+    venv: &Path,
+    namespaces: &VethPair,
+    slot: &str,
+    subslot: &str,
+    index: &str,
+) -> String {
+    let read = profinet_py(
+        venv,
+        namespaces,
+        &[
+            "read",
+            FACTORY_NAME,
+            "--slot",
+            slot,
+            "--subslot",
+            subslot,
+            "--index",
+            index,
+        ],
+    );
+    read.lines()
+        .skip_while(|line| !line.starts_with("Read "))
+        .nth(1)
+        .unwrap_or("")
+        .trim()
+        .to_owned()
+}
+
+#[test]
+fn a_dcp_set_ip_configures_the_interface_and_i_and_m_records_persist() {
+    let _serial = one_at_a_time();
+    if !running_as_root("a_dcp_set_ip_configures_the_interface_and_i_and_m_records_persist") {
+        return;
+    }
+    let venv = profinet_py_venv();
+    let namespaces = namespaces('i');
+    let work = std::env::temp_dir().join(format!("profinet-ip-netns-{}", std::process::id()));
+    std::fs::create_dir_all(&work).expect("work folder");
+    let store = work.join("station");
+    let mac = namespaces.device_mac().expect("device MAC");
+    let mut device = start_device(&namespaces, &store, &["--srci-echo", "64"]);
+    assert_eq!(device_addresses(&namespaces), ["192.168.77.50/24"]);
+
+    // A permanent IP with a gateway: the interface has it instead of the old one.
+    profinet_py(
+        &venv,
+        &namespaces,
+        &[
+            "set-ip",
+            "--permanent",
+            &mac,
+            "192.168.77.70",
+            "255.255.255.0",
+            "192.168.77.1",
+        ],
+    );
+    assert_eq!(device_addresses(&namespaces), ["192.168.77.70/24"]);
+    let route = device_ip_json(&namespaces, &["route", "show", "default"]);
+    assert!(route.contains("\"gateway\":\"192.168.77.1\""), "{route}");
+
+    // The controller reaches the device at the new address (PNIO-CM over UDP): I&M0
+    // announces I&M1..4, and an I&M1 written is read back.
+    let im0 = read_record(&venv, &namespaces, "0", "1", "0xAFF0");
+    assert!(im0.ends_with("001e"), "IM_Supported in {im0}");
+    let tag: String = format!("{:<32}{:<22}", "robot cell 1", "hall 3")
+        .bytes()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    // BlockType 0x0021, BlockLength 56, version 1.0, TagFunction and TagLocation.
+    let im1 = format!("002100380100{tag}");
+    profinet_py(
+        &venv,
+        &namespaces,
+        &[
+            "write",
+            FACTORY_NAME,
+            "--slot",
+            "0",
+            "--subslot",
+            "1",
+            "--index",
+            "0xAFF1",
+            &im1,
+        ],
+    );
+    assert_eq!(read_record(&venv, &namespaces, "0", "1", "0xAFF1"), im1);
+    // No robot error in the echo device: the diagnosis record is empty.
+    assert_eq!(read_record(&venv, &namespaces, "1", "1", "0x800A"), "");
+
+    // After a restart the permanent IP is applied again and I&M1 is still there.
+    device.interrupt_and_wait();
+    run(Command::new("ip").args([
+        "-n",
+        &namespaces.device,
+        "addr",
+        "flush",
+        "dev",
+        &namespaces.device_interface,
+    ]));
+    assert!(device_addresses(&namespaces).is_empty());
+    let mut device = start_device(&namespaces, &store, &["--srci-echo", "64"]);
+    assert_eq!(device_addresses(&namespaces), ["192.168.77.70/24"]);
+    assert_eq!(read_record(&venv, &namespaces, "0", "1", "0xAFF1"), im1);
+
+    // An S7 without a router sends its own address as the gateway: no route, no error.
+    profinet_py(
+        &venv,
+        &namespaces,
+        &[
+            "set-ip",
+            &mac,
+            "192.168.77.71",
+            "255.255.255.0",
+            "192.168.77.71",
+        ],
+    );
+    assert_eq!(device_addresses(&namespaces), ["192.168.77.71/24"]);
+
+    // 0.0.0.0 removes the address.
+    profinet_py(
+        &venv,
+        &namespaces,
+        &["set-ip", &mac, "0.0.0.0", "0.0.0.0", "0.0.0.0"],
+    );
+    assert!(device_addresses(&namespaces).is_empty());
+    device.interrupt_and_wait();
+
+    // Without CAP_NET_ADMIN the device starts, says what it lacks, and refuses the Set.
+    let log_file = work.join("device.log");
+    let log = std::fs::File::create(&log_file).expect("log file");
+    let mut wrapper = VethPair::command(&namespaces.device, "setpriv");
+    wrapper
+        .args(["--inh-caps=-net_admin", "--bounding-set=-net_admin", "--"])
+        .arg(env!("CARGO_BIN_EXE_profinet-dcp"));
+    let mut device = start_device_with(wrapper, &namespaces, &store, &[], log.into());
+    let refused = profinet_py_output(
+        &venv,
+        &namespaces,
+        &["set-ip", &mac, "192.168.77.80", "255.255.255.0", "0.0.0.0"],
+    );
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&refused.stdout),
+        String::from_utf8_lossy(&refused.stderr)
+    );
+    assert!(!refused.status.success(), "{said}");
+    assert!(said.contains("SET not possible by local reasons"), "{said}");
+    assert!(device_addresses(&namespaces).is_empty());
+    device.interrupt_and_wait();
+    let logged = std::fs::read_to_string(&log_file).unwrap_or_default();
+    assert!(
+        logged.contains("CAP_NET_ADMIN") && logged.contains(&namespaces.device_interface),
+        "{logged}"
+    );
+    let _ = std::fs::remove_dir_all(&work);
+}
+
 /// The intervals between our input frames (FrameID `frame_id`) in the capture, sorted, in
 /// milliseconds.
 fn input_frame_intervals(tshark: &Path, file: &Path, frame_id: &str) -> Vec<f64> {
@@ -335,6 +540,7 @@ fn profinet_py_connects_and_exchanges_cyclic_data_with_the_srci_module() {
     let mut capture = tshark
         .as_deref()
         .map(|tshark| start_capture(tshark, &namespaces, &capture_file));
+    let mac = namespaces.device_mac().expect("device MAC");
     let mut device = start_device(&namespaces, &work.join("station"), &["--srci-echo", "64"]);
     let gsdml = repository().join("config/GSDML-V2.41-rc-SRCI-20261122.xml");
     let gsdml = gsdml.to_str().expect("a UTF-8 path");
@@ -388,6 +594,10 @@ fn profinet_py_connects_and_exchanges_cyclic_data_with_the_srci_module() {
     device.interrupt_and_wait();
 
     if let (Some(tshark), Some(capture)) = (tshark.as_deref(), capture.as_mut()) {
+        // The ERR-RTA at the end of the AR is the capture's last frame: dumpcap takes the
+        // kernel's last, partly filled buffer block only after its timeout, so a capture
+        // stopped at once would miss it.
+        std::thread::sleep(Duration::from_millis(1500));
         capture.interrupt_and_wait();
         let (summary, malformed) = decode(tshark, &capture_file);
         assert!(
@@ -406,6 +616,27 @@ fn profinet_py_connects_and_exchanges_cyclic_data_with_the_srci_module() {
         );
         // Deadlines are absolute: the median is the cycle.
         assert!((at(0.5) - 8.0).abs() < 0.5, "p50 {}", at(0.5));
+        // The AR ended: the device closed its alarm endpoint with an ERR-RTA-PDU, "AR
+        // release.ind received" (15), "consumer DHT/WDT expired" (5) when profinet-py's
+        // cyclic frames stopped more than the watchdog time before its Release came, or
+        // "AR device deactivated" (16) when the device was stopped before either.
+        let closed = run(Command::new(tshark).arg("-r").arg(&capture_file).args([
+            "-Y",
+            "pn_io.pdu_type.type == 4",
+            "-T",
+            "fields",
+            "-e",
+            "eth.src",
+            "-e",
+            "pn_io.error_code2",
+        ]));
+        let closed = String::from_utf8_lossy(&closed.stdout).to_string();
+        assert!(
+            [15, 5, 16]
+                .iter()
+                .any(|code| closed.contains(&format!("{mac}\t{code}\n"))),
+            "no ERR-RTA of the device at the end of the AR:\n{closed}\n{summary}"
+        );
     }
     let _ = std::fs::remove_dir_all(&work);
 }

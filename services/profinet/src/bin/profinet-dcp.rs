@@ -1,5 +1,5 @@
-//! Runs the DCP responder of the PROFINET IO-device on one interface (needs root or
-//! CAP_NET_RAW), until SIGINT or SIGTERM.
+//! Runs the DCP responder of the PROFINET IO-device on one interface (needs root, or
+//! CAP_NET_RAW and CAP_NET_ADMIN), until SIGINT or SIGTERM.
 //!
 //! ```text
 //! profinet-dcp --interface eth1 --name rc-robot [--ip 192.168.0.50 --netmask 255.255.255.0
@@ -8,7 +8,9 @@
 //! ```
 //!
 //! The name and IP are the factory values; values set permanently over DCP are kept in the
-//! store file and win at the next start.
+//! store file and win at the next start. An IP set over DCP (and a set IP at start) is
+//! configured on the interface. With `--srci-echo` the I&M1..4 a controller writes are
+//! kept in `<store>.im`.
 //!
 //! With `--srci-echo 64|128|256` it runs the whole IO-device (DCP, connection management,
 //! cyclic exchange) with an SRCI module of that size whose input data echoes the PLC's
@@ -20,14 +22,17 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use profinet::cm::ar::{CmDevice, activity};
+use profinet::cm::im::ImRecords;
 use profinet::cm::record::Identification;
 use profinet::dcp::responder::DcpResponder;
 use profinet::dcp::station::{
-    DeviceIdentity, IpParameter, MemoryStore, NameOfStation, PermanentStore, StationParameters,
+    DeviceIdentity, IpInterface, IpParameter, MemoryStore, NameOfStation, PermanentStore,
+    StationParameters,
 };
 use profinet::device::{DEVICE_ID, DeviceModel, TYPE_OF_STATION, VENDOR_ID};
+use profinet::link::address::InterfaceAddresses;
 use profinet::link::dcp_service::DcpService;
-use profinet::link::file_store::FileStore;
+use profinet::link::file_store::{FileStore, ImFile};
 use profinet::link::io_device::{DeviceEvent, IoDevice, IoDeviceError};
 use profinet::link::raw_socket::RawSocket;
 use profinet::rt::c_sdu::SrciModuleSize;
@@ -102,7 +107,11 @@ fn parse_options() -> Result<Options, String> {
     })
 }
 
-fn serve<S: PermanentStore>(options: Options, store: S) -> Result<(), String> {
+fn serve<S: PermanentStore>(
+    options: Options,
+    store: S,
+    im_file: Option<ImFile>,
+) -> Result<(), String> {
     let socket = RawSocket::open(&options.interface).map_err(|e| e.to_string())?;
     let identity = DeviceIdentity {
         mac: socket.mac(),
@@ -111,7 +120,8 @@ fn serve<S: PermanentStore>(options: Options, store: S) -> Result<(), String> {
         device_instance: 0x0001,
         type_of_station: TYPE_OF_STATION.to_owned(),
     };
-    let responder = DcpResponder::new(identity, options.factory, store);
+    let interface = InterfaceAddresses::new(&options.interface);
+    let responder = DcpResponder::new(identity, options.factory, store, interface);
     let shutdown = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&shutdown);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
@@ -120,15 +130,16 @@ fn serve<S: PermanentStore>(options: Options, store: S) -> Result<(), String> {
         None => DcpService::new(socket, responder)
             .run(&shutdown)
             .map_err(|e| e.to_string()),
-        Some(size) => echo(socket, responder, size, &shutdown).map_err(|e| e.to_string()),
+        Some(size) => echo(socket, responder, size, im_file, &shutdown).map_err(|e| e.to_string()),
     }
 }
 
 /// The IO-device with an SRCI module whose input data is the last valid output data.
-fn echo<S: PermanentStore>(
+fn echo<S: PermanentStore, I: IpInterface>(
     socket: RawSocket,
-    responder: DcpResponder<S>,
+    responder: DcpResponder<S, I>,
     size: SrciModuleSize,
+    im_file: Option<ImFile>,
     shutdown: &AtomicBool,
 ) -> Result<(), IoDeviceError> {
     let mac = socket.mac();
@@ -138,16 +149,17 @@ fn echo<S: PermanentStore>(
     let device = CmDevice {
         model: DeviceModel::srci(size),
         identification: Identification::robot_controller("echo"),
+        im: ImRecords::default(),
         mac,
         activity: activity(mac, seed),
     };
-    let mut device = IoDevice::open(socket, responder, device)?;
+    let mut device = IoDevice::open(socket, responder, device, im_file)?;
     let length = usize::from(size.data_length());
     let mut input = [0u8; 256];
     let mut received = [0u8; 256];
     while !shutdown.load(Ordering::Relaxed) {
         let mut fresh = false;
-        device.poll(POLL_INTERVAL, &input[..length], false, |event| {
+        device.poll(POLL_INTERVAL, None, &input[..length], false, |event| {
             if let DeviceEvent::Output(data) = event {
                 received[..data.len()].copy_from_slice(data);
                 fresh = true;
@@ -157,7 +169,7 @@ fn echo<S: PermanentStore>(
             input = received;
         }
     }
-    Ok(())
+    device.stop()
 }
 
 fn main() -> ExitCode {
@@ -168,8 +180,11 @@ fn main() -> ExitCode {
         )
         .init();
     let result = parse_options().and_then(|mut options| match options.store.take() {
-        Some(path) => serve(options, FileStore::new(path)),
-        None => serve(options, MemoryStore::default()),
+        Some(path) => {
+            let im_file = ImFile::new(format!("{path}.im"));
+            serve(options, FileStore::new(path), Some(im_file))
+        }
+        None => serve(options, MemoryStore::default(), None),
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

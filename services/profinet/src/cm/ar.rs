@@ -29,9 +29,10 @@ use super::connect::{
     IOCR_TYPE_OUTPUT,
 };
 use super::connect_response::{ConnectAnswer, LOCAL_ALARM_REFERENCE, connect_response_blocks};
+use super::im::ImRecords;
 use super::iocr::{AcceptedIocr, IocrRefusal, accept_iocr};
 use super::module_diff::{SubmoduleDiff, module_diff};
-use super::record::{self, Identification, WrittenRecords};
+use super::record::{self, Identification, RecordSources, WrittenRecords};
 use super::rpc::{self, Call, RpcPdu};
 use crate::alarm::AlarmCr;
 use crate::device::{DeviceModel, SRCI_SLOT, SRCI_SUBSLOT};
@@ -60,6 +61,8 @@ pub struct CmDevice {
     pub model: DeviceModel,
     /// What a Read of I&M0 returns.
     pub identification: Identification,
+    /// I&M1 to I&M4 as stored (the controller may write them).
+    pub im: ImRecords,
     /// The device's MAC address.
     pub mac: MacAddress,
     /// The device's activity for its own calls (ApplicationReady); unique per start.
@@ -129,6 +132,9 @@ pub enum CmEvent {
     DataExchange,
     /// The IO AR ended.
     Ended(ArEnd),
+    /// A controller wrote I&M1..4 with new values: the shell keeps them
+    /// ([`Cm::im_records`]).
+    ImWritten,
 }
 
 /// A datagram to send.
@@ -204,6 +210,7 @@ pub struct Cm {
     written: WrittenRecords,
     next_seq_num: u32,
     answered: Option<Answered>,
+    robot_error: bool,
 }
 
 impl Cm {
@@ -217,7 +224,18 @@ impl Cm {
             written: WrittenRecords::default(),
             next_seq_num: 0,
             answered: None,
+            robot_error: false,
         }
+    }
+
+    /// Whether the robot has an error now: the diagnosis records report it.
+    pub fn set_robot_error(&mut self, error: bool) {
+        self.robot_error = error;
+    }
+
+    /// I&M1 to I&M4 as the controllers wrote them.
+    pub fn im_records(&self) -> &ImRecords {
+        &self.device.im
     }
 
     /// The NameOfStation reported in the Connect response (DCP may change it).
@@ -362,8 +380,14 @@ impl Cm {
                 (status, blocks, Vec::new())
             }
             Some(Opnum::Write) => {
+                let before = self.device.im.clone();
                 let (status, blocks) = self.write(blocks);
-                (status, blocks, Vec::new())
+                let events = if self.device.im == before {
+                    Vec::new()
+                } else {
+                    vec![CmEvent::ImWritten]
+                };
+                (status, blocks, events)
             }
             Some(Opnum::Control) => self.control(blocks, now),
             None => (PnioStatus::service_unsupported(), Vec::new(), Vec::new()),
@@ -512,7 +536,13 @@ impl Cm {
         if explicit && !self.knows_ar(request.ar_uuid) {
             return (PnioStatus::read_wrong_ar(), vec![]);
         }
-        match record::read_record(&request, &self.device.model, &self.device.identification) {
+        let sources = RecordSources {
+            model: &self.device.model,
+            identification: &self.device.identification,
+            im: &self.device.im,
+            robot_error: self.robot_error,
+        };
+        match record::read_record(&request, &sources) {
             Ok(data) => (PnioStatus::OK, build_read_res(&request, &data)),
             Err(status) => (status, vec![]),
         }
@@ -532,7 +562,8 @@ impl Cm {
                 let status = if record::is_multiple_write(&record) {
                     PnioStatus::OK
                 } else {
-                    record::write_record(&record, &self.device.model, &mut self.written)
+                    let device = &mut self.device;
+                    record::write_record(&record, &device.model, &mut self.written, &mut device.im)
                 };
                 (record, status)
             })
@@ -710,6 +741,7 @@ mod tests {
                 vendor_id: 0xffff,
                 im0: Im0::default(),
             },
+            im: ImRecords::default(),
             mac: MacAddress([0x8c, 0xf3, 0x19, 0xcd, 0x19, 0xf8]),
             activity,
         };
@@ -1046,6 +1078,65 @@ mod tests {
         // I&M0 on the IO AR.
         let im0 = send(&mut cm, &read(&legacy, record::INDEX_IM0, 4));
         assert!(status(&im0).is_ok());
+    }
+
+    /// A Write of I&M1 (`data`, block header included) to slot 0 subslot 1 on the AR of
+    /// `connect`, as call `seq_num`.
+    fn write_im1(connect: &[u8], seq_num: u32, data: &[u8]) -> Vec<u8> {
+        let request = ConnectRequest::parse(connect).unwrap();
+        let mut blocks = Vec::new();
+        pnio::cm::block::BlockHeader::write(&mut blocks, ty::IOD_WRITE_REQ_HEADER, 58);
+        blocks.extend_from_slice(&1u16.to_be_bytes());
+        request.ar.ar_uuid.write(&mut blocks, pnio::rpc::Drep::BIG);
+        blocks.extend_from_slice(&[0, 0, 0, 0, 0, 0, 0, 1, 0, 0]);
+        blocks.extend_from_slice(&crate::cm::im::INDEX_IM1.to_be_bytes());
+        blocks.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        blocks.extend_from_slice(&[0; 24]);
+        blocks.extend_from_slice(data);
+        let call = Call {
+            object: request.rpc.object,
+            interface: PNIO_DEVICE_INTERFACE,
+            activity: request.rpc.activity,
+            seq_num,
+            opnum: Opnum::Write.to_u16(),
+        };
+        rpc::request(&call, &blocks)
+    }
+
+    #[test]
+    fn a_written_i_and_m1_is_kept_and_reported_once() {
+        let mut cm = p_net();
+        let connect = udp("connect_req");
+        send(&mut cm, &connect);
+        let mut record = ImRecords::default().read(crate::cm::im::INDEX_IM1).unwrap();
+        record[6..18].copy_from_slice(b"robot cell 1");
+        let written = send(&mut cm, &write_im1(&connect, 7, &record));
+        assert!(status(&written).is_ok());
+        assert_eq!(written.events, [CmEvent::ImWritten]);
+        assert_eq!(
+            cm.im_records().read(crate::cm::im::INDEX_IM1),
+            Some(record.clone())
+        );
+        // The same values again change nothing: nothing to store.
+        let again = send(&mut cm, &write_im1(&connect, 8, &record));
+        assert!(status(&again).is_ok() && again.events.is_empty());
+    }
+
+    #[test]
+    fn the_device_diagnosis_follows_the_robot_error() {
+        let mut cm = p_net();
+        let connect = udp("connect_req");
+        send(&mut cm, &connect);
+        let blocks_of = |output: CmOutput| match rpc::parse(&output.datagram.unwrap().pdu) {
+            Ok(RpcPdu::Response { blocks, .. }) => blocks.to_vec(),
+            other => panic!("not a response: {other:?}"),
+        };
+        // The IODReadResHeader (64 bytes), then the record data.
+        let quiet = blocks_of(send(&mut cm, &read(&connect, 0xf80c, 11)));
+        assert_eq!(quiet.len(), 64);
+        cm.set_robot_error(true);
+        let faulty = blocks_of(send(&mut cm, &read(&connect, 0xf80c, 12)));
+        assert_eq!(faulty[64..66], [0x00, 0x10]);
     }
 
     /// The golden Connect turned into profinet-py's style: StartupMode Legacy, RTClass 1,

@@ -4,6 +4,8 @@
 pub mod ar;
 pub mod connect;
 pub mod connect_response;
+pub mod diagnosis;
+pub mod im;
 pub mod iocr;
 pub mod module_diff;
 pub mod record;

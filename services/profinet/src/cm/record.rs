@@ -1,6 +1,8 @@
-//! Record data: what a Read returns (I&M0, RealIdentificationData) and what a Write does
-//! with each record (PDInterfaceAdjust kept, the rest refused by name), with the Write
-//! response carrying one PNIOStatus per record.
+//! Record data: what a Read returns (I&M0 to I&M4, RealIdentificationData, the diagnosis
+//! records) and what a Write does with each record (PDInterfaceAdjust kept, I&M1 to I&M4
+//! taken, the rest refused by name), with the Write response carrying one PNIOStatus per
+//! record. An index this device does not have is answered with PNIOStatus "invalid
+//! index" (0xDE/0xDF 0x80 0xB0), never left unanswered.
 //!
 //! The record codecs of `pnio` parse the requests and encode I&M0; the Write response is
 //! written here because `pnio`'s answers every record with OK.
@@ -11,7 +13,9 @@ use pnio::im::encode_im0;
 pub use pnio::im::{Im0, SwRevision};
 use pnio::rpc::Drep;
 
-use crate::device::{API, DeviceModel, INTERFACE_SUBSLOT};
+use super::diagnosis::{DiagnosisRecord, Scope};
+use super::im::{IM_SUPPORTED, ImRecords, ImWriteError};
+use crate::device::{API, DeviceModel, INTERFACE_SUBSLOT, SRCI_SLOT, SRCI_SUBSLOT};
 
 /// Index of I&M0.
 pub const INDEX_IM0: u16 = 0xaff0;
@@ -20,8 +24,6 @@ pub const INDEX_IM0: u16 = 0xaff0;
 pub const INDEX_REAL_IDENTIFICATION_DATA: u16 = 0xf000;
 /// Index of PDInterfaceAdjust (interface submodule).
 pub const INDEX_PD_INTERFACE_ADJUST: u16 = 0x8071;
-/// I&M records this device answers: I&M0 only.
-const IM_SUPPORTED: u16 = 0x0000;
 /// BlockType of RealIdentificationData.
 const BLOCK_REAL_IDENTIFICATION_DATA: u16 = 0x0013;
 /// Fixed part of an IODWriteResHeader body after its block header.
@@ -70,30 +72,66 @@ pub fn invalid_slot(write: bool) -> PnioStatus {
     PnioStatus::new(read_write_code(write), 0x80, 0xb2, 0x00)
 }
 
+/// PNIOStatus of a Write whose data has another length than the record's.
+fn write_length_error() -> PnioStatus {
+    PnioStatus::new(read_write_code(true), 0x80, 0xb1, 0x00)
+}
+
+/// PNIOStatus of a Write whose data is not the record's (another block).
+fn invalid_parameter() -> PnioStatus {
+    PnioStatus::new(read_write_code(true), 0x80, 0xb8, 0x00)
+}
+
 /// PNIOStatus.ErrorCode of a failed Read (0xDE) or Write (0xDF).
 fn read_write_code(write: bool) -> u8 {
     if write { 0xdf } else { 0xde }
 }
 
+/// What a Read answers from, besides the request.
+#[derive(Debug, Clone, Copy)]
+pub struct RecordSources<'a> {
+    /// The submodules.
+    pub model: &'a DeviceModel,
+    /// I&M0.
+    pub identification: &'a Identification,
+    /// I&M1 to I&M4.
+    pub im: &'a ImRecords,
+    /// The robot has an error: the SRCI submodule's diagnosis.
+    pub robot_error: bool,
+}
+
 /// The record a Read asks for.
-pub fn read_record(
-    request: &ReadReq,
-    model: &DeviceModel,
-    identification: &Identification,
-) -> Result<Vec<u8>, PnioStatus> {
+pub fn read_record(request: &ReadReq, sources: &RecordSources<'_>) -> Result<Vec<u8>, PnioStatus> {
+    let model = sources.model;
     if request.index == INDEX_REAL_IDENTIFICATION_DATA {
         return Ok(real_identification_data(model));
+    }
+    if let Some(record) = DiagnosisRecord::at(request.index) {
+        let known = match record.scope {
+            Scope::Subslot => model.submodule(request.slot, request.subslot).is_some(),
+            Scope::Slot => model.submodules().iter().any(|s| s.slot == request.slot),
+            Scope::Api => request.api == API,
+            Scope::Ar | Scope::Device => true,
+        };
+        let srci = model.submodule(SRCI_SLOT, SRCI_SUBSLOT);
+        return match srci {
+            Some(srci) if known => {
+                let address = (request.api, request.slot, request.subslot);
+                Ok(record.data(address, srci, sources.robot_error))
+            }
+            _ => Err(invalid_slot(false)),
+        };
     }
     if request.api != API || model.submodule(request.slot, request.subslot).is_none() {
         return Err(invalid_slot(false));
     }
     match request.index {
         INDEX_IM0 => Ok(encode_im0(
-            identification.vendor_id,
-            &identification.im0,
+            sources.identification.vendor_id,
+            &sources.identification.im0,
             IM_SUPPORTED,
         )),
-        _ => Err(invalid_index(false)),
+        index => sources.im.read(index).ok_or(invalid_index(false)),
     }
 }
 
@@ -137,11 +175,24 @@ pub struct WrittenRecords {
 }
 
 /// Applies one record of a Write and returns its status: PDInterfaceAdjust on the
-/// interface submodule is kept; records of submodules this device does not have, and
-/// indices it does not know, are refused.
-pub fn write_record(record: &Record, model: &DeviceModel, kept: &mut WrittenRecords) -> PnioStatus {
+/// interface submodule is kept, I&M1 to I&M4 (on any submodule, one set per device) go
+/// to `im`; records of submodules this device does not have, and indices it does not
+/// know, are refused.
+pub fn write_record(
+    record: &Record,
+    model: &DeviceModel,
+    kept: &mut WrittenRecords,
+    im: &mut ImRecords,
+) -> PnioStatus {
     if record.api != API || model.submodule(record.slot, record.subslot).is_none() {
         return invalid_slot(true);
+    }
+    if let Some(written) = im.write(record.index, &record.data) {
+        return match written {
+            Ok(_) => PnioStatus::OK,
+            Err(ImWriteError::Block(_)) => invalid_parameter(),
+            Err(ImWriteError::Length { .. }) => write_length_error(),
+        };
     }
     match (record.subslot, record.index) {
         (INTERFACE_SUBSLOT, INDEX_PD_INTERFACE_ADJUST) => {
@@ -191,6 +242,19 @@ mod tests {
         DeviceModel::srci(SrciModuleSize::Bytes256)
     }
 
+    /// Reads `request` from this device with p-net's identity, blank I&M1..4 and the
+    /// robot error `robot_error`.
+    fn read(request: &ReadReq, robot_error: bool) -> Result<Vec<u8>, PnioStatus> {
+        let identification = p_net_identification();
+        let sources = RecordSources {
+            model: &model(),
+            identification: &identification,
+            im: &ImRecords::default(),
+            robot_error,
+        };
+        read_record(request, &sources)
+    }
+
     /// The PNIO blocks of a golden request.
     fn blocks(name: &str) -> Vec<u8> {
         testdata::frame(name)[42 + RpcHeader::LEN + NdrRequest::LEN..].to_vec()
@@ -221,24 +285,74 @@ mod tests {
     fn i_and_m0_is_read_on_a_known_submodule_only() {
         let request = ReadReq::parse(&blocks("im0_read_req")).unwrap();
         assert_eq!((request.slot, request.subslot), (DAP_SLOT, DAP_SUBSLOT));
-        let record = read_record(&request, &model(), &p_net_identification()).unwrap();
+        let record = read(&request, false).unwrap();
         let golden = testdata::frame("im0_read_res");
         // The golden I&M0 says IM_Supported 0x000E (p-net has I&M1..3); this device
-        // answers 0.
+        // has I&M1..4.
         assert_eq!(record[..58], golden[golden.len() - 60..golden.len() - 2]);
-        assert_eq!(record[58..], [0, 0]);
+        assert_eq!(record[58..], [0, 0x1e]);
         let mut elsewhere = request.clone();
         elsewhere.slot = 7;
-        assert_eq!(
-            read_record(&elsewhere, &model(), &p_net_identification()),
-            Err(invalid_slot(false))
-        );
+        assert_eq!(read(&elsewhere, false), Err(invalid_slot(false)));
         let mut other = request;
-        other.index = 0xaff1;
+        for index in [0xaff5, 0xf841, 0x8028, 0x1234] {
+            other.index = index;
+            assert_eq!(
+                read(&other, false),
+                Err(invalid_index(false)),
+                "{index:#06x}"
+            );
+        }
+    }
+
+    #[test]
+    fn i_and_m1_to_4_are_read_and_written_on_every_submodule() {
+        let mut request = ReadReq::parse(&blocks("im0_read_req")).unwrap();
+        request.index = crate::cm::im::INDEX_IM3;
+        let blank = read(&request, false).unwrap();
+        assert_eq!(blank[..6], [0x00, 0x23, 0x00, 56, 1, 0]);
+        let write = WriteReq::parse(&blocks("write_req")).unwrap();
+        let mut record = write.records[1].clone();
+        (record.slot, record.subslot) = (SRCI_SLOT, 1);
+        record.index = crate::cm::im::INDEX_IM3;
+        record.data = blank.clone();
+        record.data[6..].fill(b'x');
+        let mut im = ImRecords::default();
+        let mut kept = WrittenRecords::default();
+        let status = write_record(&record, &model(), &mut kept, &mut im);
+        assert_eq!(status, PnioStatus::OK);
+        assert_eq!(im.read(record.index), Some(record.data.clone()));
+        // Another block, another length: refused, nothing changes.
+        let mut wrong = record.clone();
+        wrong.index = crate::cm::im::INDEX_IM1;
         assert_eq!(
-            read_record(&other, &model(), &p_net_identification()),
-            Err(invalid_index(false))
+            write_record(&wrong, &model(), &mut kept, &mut im),
+            invalid_parameter()
         );
+        wrong.index = record.index;
+        wrong.data.pop();
+        wrong.data[3] -= 1;
+        assert_eq!(
+            write_record(&wrong, &model(), &mut kept, &mut im),
+            write_length_error()
+        );
+        assert_eq!(im.read(record.index), Some(record.data));
+    }
+
+    #[test]
+    fn the_diagnosis_records_report_the_robot_error() {
+        let mut request = ReadReq::parse(&blocks("im0_read_req")).unwrap();
+        (request.slot, request.subslot, request.index) = (SRCI_SLOT, 1, 0x800a);
+        assert_eq!(read(&request, false), Ok(Vec::new()));
+        let diagnosis = read(&request, true).unwrap();
+        assert_eq!(diagnosis[..2], [0x00, 0x10]);
+        (request.slot, request.subslot, request.index) = (0, 0, 0xf80c);
+        assert_eq!(read(&request, true), Ok(diagnosis));
+        // A subslot or slot the device does not have.
+        (request.slot, request.subslot, request.index) = (1, 2, 0x800a);
+        assert_eq!(read(&request, true), Err(invalid_slot(false)));
+        (request.slot, request.index) = (5, 0xc00a);
+        assert_eq!(read(&request, true), Err(invalid_slot(false)));
     }
 
     #[test]
@@ -278,7 +392,7 @@ mod tests {
                 let status = if is_multiple_write(record) {
                     PnioStatus::OK
                 } else {
-                    write_record(record, &model(), &mut kept)
+                    write_record(record, &model(), &mut kept, &mut ImRecords::default())
                 };
                 (record.clone(), status)
             })

@@ -65,19 +65,26 @@ pub fn encode(parameters: &StationParameters) -> String {
     text
 }
 
+/// The `key = value` lines of a text record, trimmed, with their line numbers (from 1);
+/// blank lines are skipped, any other line is `Err(its line number)`. The I&M records
+/// are stored in the same form ([`crate::cm::im`]).
+pub fn key_values(text: &str) -> impl Iterator<Item = Result<(usize, &str, &str), usize>> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, raw)| !raw.trim().is_empty())
+        .map(|(index, raw)| {
+            raw.split_once('=')
+                .map(|(key, value)| (index + 1, key.trim(), value.trim()))
+                .ok_or(index + 1)
+        })
+}
+
 /// Reads a record written by [`encode`].
 pub fn decode(text: &str) -> Result<StationParameters, PermanentRecordError> {
     let mut name = None;
     let mut addresses: [Option<Ipv4Addr>; 3] = [None; 3];
-    for (index, raw) in text.lines().enumerate() {
-        let line = index + 1;
-        if raw.trim().is_empty() {
-            continue;
-        }
-        let (key, value) = raw
-            .split_once('=')
-            .map(|(k, v)| (k.trim(), v.trim()))
-            .ok_or(PermanentRecordError::Syntax(line))?;
+    for entry in key_values(text) {
+        let (line, key, value) = entry.map_err(PermanentRecordError::Syntax)?;
         let slot = match key {
             "name_of_station" => {
                 name = Some(NameOfStation::new(value.as_bytes())?);

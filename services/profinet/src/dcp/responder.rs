@@ -6,13 +6,22 @@
 //! current value (temporary); with it set, the permanent value too. Reset to factory erases
 //! the store and returns to the factory values; the device holds no application data in
 //! DCP, so every reset mode does exactly that.
+//!
+//! An IP parameter takes effect on the interface through the [`IpInterface`] port before
+//! the Set is answered, so the answer says whether the address is really in use: one the
+//! interface refuses (the process lacks CAP_NET_ADMIN, say) is answered with BlockError 5
+//! "SET not possible by local reasons" and the station keeps its previous IP. At start the
+//! IP in use (the permanent or the factory one) is applied when one is set; an unset one
+//! leaves the interface as it is, since the address may be configured outside the device
+//! until a controller assigns one. A Set of 0.0.0.0, and reset to factory to an unset IP,
+//! remove the address.
 
 use std::time::Duration;
 
 use super::block::{self, Block, BlockError, BlockType, BlockWriter};
 use super::delay::ResponseSpread;
 use super::station::{
-    DeviceIdentity, IpParameter, NameOfStation, PermanentStore, StationParameters,
+    DeviceIdentity, IpInterface, IpParameter, NameOfStation, PermanentStore, StationParameters,
 };
 use super::{DcpError, DcpHeader, HEADER_LEN, ServiceId, ServiceType};
 use crate::ethernet::{
@@ -71,19 +80,27 @@ pub struct DcpReply {
 
 /// The device's DCP state machine.
 #[derive(Debug)]
-pub struct DcpResponder<S: PermanentStore> {
+pub struct DcpResponder<S: PermanentStore, I: IpInterface> {
     identity: DeviceIdentity,
     factory: StationParameters,
     permanent: StationParameters,
     current: StationParameters,
     store: S,
+    interface: I,
     spread: ResponseSpread,
 }
 
-impl<S: PermanentStore> DcpResponder<S> {
+impl<S: PermanentStore, I: IpInterface> DcpResponder<S, I> {
     /// A responder starting from the permanent values in `store`, or from `factory` when
-    /// the store holds none or cannot be read (logged: the device must come up anyway).
-    pub fn new(identity: DeviceIdentity, factory: StationParameters, mut store: S) -> Self {
+    /// the store holds none or cannot be read (logged: the device must come up anyway);
+    /// the IP in use is applied to `interface` when one is set (a failure is logged, and
+    /// the device still reports the IP, as a controller's next Set may fix it).
+    pub fn new(
+        identity: DeviceIdentity,
+        factory: StationParameters,
+        mut store: S,
+        mut interface: I,
+    ) -> Self {
         let permanent = match store.load() {
             Ok(Some(stored)) => stored,
             Ok(None) => factory.clone(),
@@ -92,6 +109,11 @@ impl<S: PermanentStore> DcpResponder<S> {
                 factory.clone()
             }
         };
+        if permanent.ip.is_set()
+            && let Err(error) = interface.apply(&permanent.ip)
+        {
+            tracing::error!(%error, ip = %permanent.ip.address, "the station's IP is not applied at start");
+        }
         Self {
             spread: ResponseSpread::new(identity.mac),
             identity,
@@ -99,6 +121,7 @@ impl<S: PermanentStore> DcpResponder<S> {
             permanent,
             factory,
             store,
+            interface,
         }
     }
 
@@ -328,7 +351,7 @@ impl<S: PermanentStore> DcpResponder<S> {
                 }
             },
             block::IP_PARAMETER => match IpParameter::from_wire(value) {
-                Ok(Some(ip)) => self.assign(permanent, outcome, |p| p.ip = ip),
+                Ok(Some(ip)) => self.set_ip(ip, permanent, outcome),
                 Ok(None) => BlockError::SetNotPossible,
                 Err(error) => {
                     tracing::info!(%error, "DCP Set IP refused");
@@ -365,9 +388,44 @@ impl<S: PermanentStore> DcpResponder<S> {
         BlockError::NoError
     }
 
+    /// Applies `ip` to the interface (also when it is the IP in use: the interface may
+    /// not have it, after a refusal at start, say), then keeps it as [`Self::assign`]
+    /// does; when the interface refuses it nothing changes, and when storing fails the
+    /// previous IP goes back onto the interface.
+    fn set_ip(&mut self, ip: IpParameter, permanent: bool, outcome: &mut DcpOutcome) -> BlockError {
+        let previous = self.current.ip;
+        if !self.apply_ip(&ip) {
+            return BlockError::SetNotPossible;
+        }
+        let error = self.assign(permanent, outcome, |p| p.ip = ip);
+        if error != BlockError::NoError && ip != previous {
+            self.apply_ip(&previous);
+        }
+        error
+    }
+
+    /// Applies `ip` to the interface; false (logged) when the interface refuses it.
+    fn apply_ip(&mut self, ip: &IpParameter) -> bool {
+        match self.interface.apply(ip) {
+            Ok(()) => true,
+            Err(error) => {
+                tracing::error!(%error, ip = %ip.address, "DCP Set IP not applied to the interface");
+                false
+            }
+        }
+    }
+
     fn reset_to_factory(&mut self, outcome: &mut DcpOutcome) -> BlockError {
+        // The factory IP goes onto the interface first: a refusal keeps everything.
+        let (previous, factory) = (self.current.ip, self.factory.ip);
+        if factory != previous && !self.apply_ip(&factory) {
+            return BlockError::SetNotPossible;
+        }
         if let Err(error) = self.store.erase() {
             tracing::warn!(%error, "cannot erase the permanent station parameters");
+            if factory != previous {
+                self.apply_ip(&previous);
+            }
             return BlockError::ResourceError;
         }
         outcome.changed |= self.current != self.factory;
@@ -414,8 +472,31 @@ mod tests {
         }
     }
 
-    fn responder(name: &str) -> DcpResponder<MemoryStore> {
-        DcpResponder::new(identity(), named(name), MemoryStore::default())
+    /// The interface as the tests see it: what was applied, and whether it refuses.
+    #[derive(Debug, Default)]
+    struct FakeInterface {
+        applied: Vec<IpParameter>,
+        refuse: bool,
+    }
+
+    impl IpInterface for FakeInterface {
+        type Error = std::io::Error;
+        fn apply(&mut self, ip: &IpParameter) -> Result<(), Self::Error> {
+            if self.refuse {
+                return Err(std::io::Error::from(std::io::ErrorKind::PermissionDenied));
+            }
+            self.applied.push(*ip);
+            Ok(())
+        }
+    }
+
+    fn responder(name: &str) -> DcpResponder<MemoryStore, FakeInterface> {
+        DcpResponder::new(
+            identity(),
+            named(name),
+            MemoryStore::default(),
+            FakeInterface::default(),
+        )
     }
 
     /// A DCP request frame from the PLC.
@@ -454,7 +535,7 @@ mod tests {
     }
 
     fn handle<S: PermanentStore>(
-        responder: &mut DcpResponder<S>,
+        responder: &mut DcpResponder<S, FakeInterface>,
         frame: &[u8],
     ) -> (DcpOutcome, Vec<u8>) {
         let mut out = [0u8; MAX_FRAME_LEN];
@@ -604,7 +685,12 @@ mod tests {
         let store = MemoryStore {
             stored: Some(device.permanent().clone()),
         };
-        let restarted = DcpResponder::new(identity(), named("factory-name"), store);
+        let restarted = DcpResponder::new(
+            identity(),
+            named("factory-name"),
+            store,
+            FakeInterface::default(),
+        );
         assert_eq!(restarted.current().name_of_station.as_str(), "cell1-robot");
     }
 
@@ -648,7 +734,12 @@ mod tests {
 
     #[test]
     fn a_failing_store_is_a_resource_error_and_leaves_the_values() {
-        let mut device = DcpResponder::new(identity(), named("rc-robot"), BrokenStore);
+        let mut device = DcpResponder::new(
+            identity(),
+            named("rc-robot"),
+            BrokenStore,
+            FakeInterface::default(),
+        );
         assert_eq!(device.current().name_of_station.as_str(), "rc-robot");
         let (outcome, reply) = handle(&mut device, &set_name(b"other", 1));
         assert_eq!(block_errors(&reply), [(2, 2, 4)]);
@@ -669,6 +760,101 @@ mod tests {
         assert_eq!(device.store.stored, None);
         let (_, reply) = handle(&mut device, &set(&[5, 5, 0, 2, 0, 0]));
         assert_eq!(block_errors(&reply), [(5, 5, 0)]);
+    }
+
+    /// A Set of the IP parameter `ip` with `qualifier`.
+    fn set_ip(ip: IpParameter, qualifier: u16) -> Vec<u8> {
+        let mut data = vec![1, 2, 0, 14];
+        data.extend_from_slice(&qualifier.to_be_bytes());
+        data.extend_from_slice(&ip.to_wire());
+        set(&data)
+    }
+
+    const CELL_IP: IpParameter = IpParameter {
+        address: Ipv4Addr::new(10, 0, 0, 5),
+        subnet_mask: Ipv4Addr::new(255, 255, 255, 0),
+        gateway: Ipv4Addr::new(10, 0, 0, 1),
+    };
+
+    #[test]
+    fn a_set_ip_is_applied_to_the_interface_before_it_is_answered() {
+        let mut device = responder("rc-robot");
+        assert!(
+            device.interface.applied.is_empty(),
+            "an unset IP is not applied at start"
+        );
+        let (outcome, reply) = handle(&mut device, &set_ip(CELL_IP, 0));
+        assert_eq!(block_errors(&reply), [(1, 2, 0)]);
+        assert!(outcome.changed);
+        assert_eq!(device.interface.applied, [CELL_IP]);
+        // The same IP again is applied again (the interface may have lost it) but
+        // changes nothing.
+        let (outcome, _) = handle(&mut device, &set_ip(CELL_IP, 0));
+        assert!(!outcome.changed);
+        assert_eq!(device.interface.applied, [CELL_IP, CELL_IP]);
+        // 0.0.0.0 removes the address.
+        let (_, reply) = handle(&mut device, &set_ip(IpParameter::UNSET, 0));
+        assert_eq!(block_errors(&reply), [(1, 2, 0)]);
+        assert_eq!(
+            device.interface.applied,
+            [CELL_IP, CELL_IP, IpParameter::UNSET]
+        );
+        assert!(!device.current().ip.is_set());
+    }
+
+    #[test]
+    fn an_ip_the_interface_refuses_is_answered_set_not_possible_and_kept_nowhere() {
+        let mut device = responder("rc-robot");
+        device.interface.refuse = true;
+        let (outcome, reply) = handle(&mut device, &set_ip(CELL_IP, 1));
+        assert_eq!(block_errors(&reply), [(1, 2, 5)]);
+        assert!(!outcome.changed);
+        assert_eq!(device.current().ip, IpParameter::UNSET);
+        assert_eq!(device.permanent().ip, IpParameter::UNSET);
+        assert_eq!(device.store.stored, None);
+        // A name in the same transaction is still set: every block is answered alone.
+        device.interface.refuse = false;
+        handle(&mut device, &set_ip(CELL_IP, 0));
+        device.interface.refuse = true;
+        handle(&mut device, &set_name(b"cell1-robot", 1));
+        let (_, reply) = handle(&mut device, &set(&[5, 6, 0, 2, 0, 4]));
+        assert_eq!(block_errors(&reply), [(5, 6, 5)]);
+        assert_eq!(device.current().ip, CELL_IP);
+        assert_eq!(device.current().name_of_station.as_str(), "cell1-robot");
+    }
+
+    #[test]
+    fn the_permanent_ip_is_applied_at_start_and_a_reset_applies_the_factory_one() {
+        let store = MemoryStore {
+            stored: Some(StationParameters {
+                name_of_station: NameOfStation::new(b"cell1-robot").unwrap(),
+                ip: CELL_IP,
+            }),
+        };
+        let mut device = DcpResponder::new(
+            identity(),
+            named("rc-robot"),
+            store,
+            FakeInterface::default(),
+        );
+        assert_eq!(device.interface.applied, [CELL_IP]);
+        let (_, reply) = handle(&mut device, &set(&[5, 6, 0, 2, 0, 4]));
+        assert_eq!(block_errors(&reply), [(5, 6, 0)]);
+        assert_eq!(device.interface.applied, [CELL_IP, IpParameter::UNSET]);
+    }
+
+    #[test]
+    fn a_store_failure_puts_the_previous_ip_back_on_the_interface() {
+        let mut device = DcpResponder::new(
+            identity(),
+            named("rc-robot"),
+            BrokenStore,
+            FakeInterface::default(),
+        );
+        let (_, reply) = handle(&mut device, &set_ip(CELL_IP, 1));
+        assert_eq!(block_errors(&reply), [(1, 2, 4)]);
+        assert_eq!(device.interface.applied, [CELL_IP, IpParameter::UNSET]);
+        assert_eq!(device.current().ip, IpParameter::UNSET);
     }
 
     #[test]

@@ -173,6 +173,13 @@ impl IpParameter {
         !self.address.is_unspecified()
     }
 
+    /// The default router, if the station has one: a gateway of 0.0.0.0, or equal to the
+    /// station's own address (what an S7 sends when the project uses no router, as in the
+    /// golden Set IP), means none.
+    pub fn router(&self) -> Option<Ipv4Addr> {
+        (!self.gateway.is_unspecified() && self.gateway != self.address).then_some(self.gateway)
+    }
+
     /// Checks the parameter; all zeros (delete the address) is valid.
     pub fn validate(self) -> Result<Self, IpParameterError> {
         if self == Self::UNSET {
@@ -236,6 +243,18 @@ pub trait PermanentStore {
 
     /// Forgets the stored parameters (reset to factory).
     fn erase(&mut self) -> Result<(), Self::Error>;
+}
+
+/// Where the station's IP parameter takes effect: the shell configures the network
+/// interface (see `crate::link::address`), tests record what they were asked.
+pub trait IpInterface {
+    /// Configuring the interface failed.
+    type Error: std::error::Error + Send + Sync + 'static;
+
+    /// Gives the interface `ip` as its only IPv4 address (and the default route via its
+    /// router, [`IpParameter::router`], when it has one); [`IpParameter::UNSET`] removes
+    /// the address.
+    fn apply(&mut self, ip: &IpParameter) -> Result<(), Self::Error>;
 }
 
 /// A store that keeps the parameters in memory only: for tests, and for a device that
@@ -334,6 +353,10 @@ mod tests {
             Err(IpParameterError::Gateway { .. })
         ));
         assert_eq!(IpParameter::from_wire(&[0; 11]), Ok(None));
+        assert_eq!(ok.router(), Some(Ipv4Addr::new(172, 16, 2, 1)));
+        let own = wire([172, 16, 2, 10], [255, 255, 255, 0], [172, 16, 2, 10]);
+        assert_eq!(own.unwrap().unwrap().router(), None);
+        assert_eq!(IpParameter::UNSET.router(), None);
     }
 
     proptest! {

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use super::raw_socket::{RawSocket, RawSocketError};
 use crate::dcp::responder::DcpResponder;
-use crate::dcp::station::PermanentStore;
+use crate::dcp::station::{IpInterface, PermanentStore};
 use crate::ethernet::MAX_FRAME_LEN;
 
 /// Longest wait for a frame, so that shutdown is noticed promptly.
@@ -26,16 +26,16 @@ struct PendingReply {
 
 /// Answers DCP on one interface.
 #[derive(Debug)]
-pub struct DcpService<S: PermanentStore> {
+pub struct DcpService<S: PermanentStore, I: IpInterface> {
     socket: RawSocket,
-    responder: DcpResponder<S>,
+    responder: DcpResponder<S, I>,
     pending: VecDeque<PendingReply>,
     reply: Vec<u8>,
 }
 
-impl<S: PermanentStore> DcpService<S> {
+impl<S: PermanentStore, I: IpInterface> DcpService<S, I> {
     /// A service answering with `responder` on `socket`.
-    pub fn new(socket: RawSocket, responder: DcpResponder<S>) -> Self {
+    pub fn new(socket: RawSocket, responder: DcpResponder<S, I>) -> Self {
         Self {
             socket,
             responder,
@@ -45,7 +45,7 @@ impl<S: PermanentStore> DcpService<S> {
     }
 
     /// The responder and its station parameters.
-    pub fn responder(&self) -> &DcpResponder<S> {
+    pub fn responder(&self) -> &DcpResponder<S, I> {
         &self.responder
     }
 

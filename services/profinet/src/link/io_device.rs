@@ -11,17 +11,18 @@
 
 use std::io;
 use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
-use std::os::fd::{AsFd, AsRawFd};
+use std::os::fd::{AsFd, AsRawFd, BorrowedFd};
 use std::time::{Duration, Instant};
 
 use pnio::rpc::PNIO_UDP_PORT;
 
 use super::dcp_service::DcpService;
+use super::file_store::ImFile;
 use super::raw_socket::{RawSocket, RawSocketError};
-use crate::alarm::{AlarmOutput, DiagnosisAlarms};
+use crate::alarm::{AlarmClose, AlarmFailure, AlarmOutput, DiagnosisAlarms};
 use crate::cm::ar::{ArEnd, Cm, CmDevice, CmEvent, CmOutput, CyclicExchange};
 use crate::dcp::responder::DcpResponder;
-use crate::dcp::station::PermanentStore;
+use crate::dcp::station::{IpInterface, PermanentStore};
 use crate::device::{SRCI_SLOT, SRCI_SUBSLOT};
 use crate::ethernet::{ETHER_TYPE_PROFINET, EthernetHeader, MAX_FRAME_LEN};
 use crate::frame_id::{FrameUse, frame_use};
@@ -54,6 +55,8 @@ pub enum DeviceEvent<'a> {
     Connected,
     /// The PLC's valid SRCI data of one cycle.
     Output(&'a [u8]),
+    /// An input frame went out with the input data given to this poll.
+    InputSent,
     /// The IO AR ended: released, given up or timed out.
     Ended(SessionEnd),
 }
@@ -78,10 +81,12 @@ struct Exchange {
 
 /// A PROFINET IO-device on one interface.
 #[derive(Debug)]
-pub struct IoDevice<S: PermanentStore> {
-    dcp: DcpService<S>,
+pub struct IoDevice<S: PermanentStore, I: IpInterface> {
+    dcp: DcpService<S, I>,
     udp: UdpSocket,
     cm: Cm,
+    /// Where I&M1..4 are kept across restarts; `None`: not kept.
+    im_file: Option<ImFile>,
     exchange: Option<Exchange>,
     epoch: Instant,
     received: Vec<u8>,
@@ -89,14 +94,22 @@ pub struct IoDevice<S: PermanentStore> {
     datagram: Vec<u8>,
 }
 
-impl<S: PermanentStore> IoDevice<S> {
+impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
     /// Opens the sockets: `socket` on the interface (its responder answers DCP) and UDP
-    /// port 34964 on every address.
+    /// port 34964 on every address. `device.im` is replaced by what `im_file` holds (a
+    /// damaged file is logged and the device starts with blank records).
     pub fn open(
         socket: RawSocket,
-        responder: DcpResponder<S>,
-        device: CmDevice,
+        responder: DcpResponder<S, I>,
+        mut device: CmDevice,
+        im_file: Option<ImFile>,
     ) -> Result<Self, IoDeviceError> {
+        if let Some(file) = &im_file {
+            match file.load() {
+                Ok(records) => device.im = records,
+                Err(error) => tracing::error!(%error, "I&M1..4 unreadable; blank ones are used"),
+            }
+        }
         let udp =
             UdpSocket::bind((Ipv4Addr::UNSPECIFIED, PNIO_UDP_PORT)).map_err(IoDeviceError::Udp)?;
         udp.set_nonblocking(true).map_err(IoDeviceError::Udp)?;
@@ -107,6 +120,7 @@ impl<S: PermanentStore> IoDevice<S> {
             dcp,
             udp,
             cm: Cm::new(device, &name),
+            im_file,
             exchange: None,
             epoch: Instant::now(),
             received: vec![0; RECEIVE_BUFFER_LEN],
@@ -115,27 +129,32 @@ impl<S: PermanentStore> IoDevice<S> {
         })
     }
 
-    /// Runs the device for at most `max_wait`: sends the input frame when due with
-    /// `input` (the robot→PLC telegram; StationProblemIndicator cleared and the
-    /// diagnosis alarm raised when `station_problem`, the robot's error), answers DCP,
+    /// Runs the device for at most `max_wait`, or until `wake` (a descriptor of the
+    /// caller's, say the interpreter's answer event) is readable: sends the input frame
+    /// when due with `input` (the robot→PLC telegram; StationProblemIndicator cleared and
+    /// the diagnosis alarm raised when `station_problem`, the robot's error), answers DCP,
     /// CM and alarm acknowledgements, and hands what happens to `on_event`.
     pub fn poll(
         &mut self,
         max_wait: Duration,
+        wake: Option<BorrowedFd<'_>>,
         input: &[u8],
         station_problem: bool,
         mut on_event: impl FnMut(DeviceEvent<'_>),
     ) -> Result<(), IoDeviceError> {
         let now = self.epoch.elapsed();
-        self.provide(now, input, station_problem)?;
-        self.supervise(now, &mut on_event);
+        self.cm.set_robot_error(station_problem);
+        if self.provide(now, input, station_problem)? {
+            on_event(DeviceEvent::InputSent);
+        }
+        self.supervise(now, &mut on_event)?;
         self.raise_alarms(station_problem, &mut on_event)?;
         let output = self.cm.poll(now);
         self.apply(output, &mut on_event)?;
         self.dcp.send_due(Instant::now())?;
 
         let wait = self.wait(now, max_wait);
-        let (raw_ready, udp_ready) = self.ready(wait)?;
+        let (raw_ready, udp_ready) = self.ready(wait, wake)?;
         if raw_ready {
             self.receive_frames(&mut on_event)?;
         }
@@ -145,28 +164,32 @@ impl<S: PermanentStore> IoDevice<S> {
         Ok(())
     }
 
+    /// Sends the input frame when it is due; true when one went out.
     fn provide(
         &mut self,
         now: Duration,
         input: &[u8],
         station_problem: bool,
-    ) -> Result<(), IoDeviceError> {
+    ) -> Result<bool, IoDeviceError> {
         let Some(exchange) = &mut self.exchange else {
-            return Ok(());
+            return Ok(false);
         };
         if now < exchange.provider.due() {
-            return Ok(());
+            return Ok(false);
         }
         match exchange
             .provider
             .frame(now, input, station_problem, &mut self.sent)
         {
-            Ok(len) => self.dcp.socket().send(&self.sent[..len])?,
+            Ok(len) => {
+                self.dcp.socket().send(&self.sent[..len])?;
+                Ok(true)
+            }
             Err(error) => {
                 tracing::warn!(%error, "input frame not sent");
+                Ok(false)
             }
         }
-        Ok(())
     }
 
     /// Raises or clears the diagnosis alarm once the AR exchanges data, and resends an
@@ -200,8 +223,19 @@ impl<S: PermanentStore> IoDevice<S> {
                 AlarmOutput::Acknowledged { appeared } => {
                     tracing::info!(appeared, "the controller acknowledged the diagnosis alarm");
                 }
-                AlarmOutput::AbortAr => {
-                    tracing::warn!("the alarm channel failed: the AR is aborted");
+                AlarmOutput::AbortAr(failure) => {
+                    tracing::warn!(?failure, "the alarm channel failed: the AR is aborted");
+                    match failure {
+                        AlarmFailure::Unacknowledged => {
+                            self.close_alarms(AlarmClose::AlarmUnacknowledged)?;
+                        }
+                        // The controller's endpoint is closed already.
+                        AlarmFailure::ClosedByController => {
+                            if let Some(exchange) = &mut self.exchange {
+                                exchange.alarms = None;
+                            }
+                        }
+                    }
                     let ended = self.cm.abort();
                     self.apply(ended, on_event)?;
                 }
@@ -210,18 +244,44 @@ impl<S: PermanentStore> IoDevice<S> {
         Ok(())
     }
 
-    fn supervise(&mut self, now: Duration, on_event: &mut impl FnMut(DeviceEvent<'_>)) {
+    fn supervise(
+        &mut self,
+        now: Duration,
+        on_event: &mut impl FnMut(DeviceEvent<'_>),
+    ) -> Result<(), IoDeviceError> {
         let Some(expiry) = self
             .exchange
             .as_mut()
             .and_then(|exchange| exchange.consumer.check(now))
         else {
-            return;
+            return Ok(());
         };
         tracing::warn!(?expiry, "the PLC's cyclic data stopped: the AR is aborted");
+        self.close_alarms(AlarmClose::ConsumerExpired)?;
         self.exchange = None;
         self.cm.abort();
         on_event(DeviceEvent::Ended(SessionEnd::Consumer(expiry)));
+        Ok(())
+    }
+
+    /// Ends the IO AR, if there is one, because the device stops: its alarm endpoint is
+    /// closed with an ERR-RTA-PDU, so that the controller learns it at once rather than by
+    /// its watchdog. Call before dropping the device.
+    pub fn stop(&mut self) -> Result<(), IoDeviceError> {
+        self.close_alarms(AlarmClose::DeviceStops)?;
+        self.exchange = None;
+        self.cm.abort();
+        Ok(())
+    }
+
+    /// Closes the alarm endpoint of the ending AR with an ERR-RTA-PDU, when it has one.
+    fn close_alarms(&mut self, reason: AlarmClose) -> Result<(), IoDeviceError> {
+        let Some(alarms) = self.exchange.as_mut().and_then(|e| e.alarms.take()) else {
+            return Ok(());
+        };
+        tracing::info!(?reason, "alarm endpoint closed with ERR-RTA");
+        self.dcp.socket().send(&alarms.close(reason))?;
+        Ok(())
     }
 
     /// How long to wait for traffic: until the next input frame, the consumer's deadline
@@ -243,7 +303,13 @@ impl<S: PermanentStore> IoDevice<S> {
         wait
     }
 
-    fn ready(&self, wait: Duration) -> Result<(bool, bool), IoDeviceError> {
+    /// Waits up to `wait` for the raw or the UDP socket, or `wake`; which sockets have
+    /// something to read.
+    fn ready(
+        &self,
+        wait: Duration,
+        wake: Option<BorrowedFd<'_>>,
+    ) -> Result<(bool, bool), IoDeviceError> {
         let mut fds = [
             libc::pollfd {
                 fd: self.dcp.socket().as_fd().as_raw_fd(),
@@ -255,13 +321,19 @@ impl<S: PermanentStore> IoDevice<S> {
                 events: libc::POLLIN,
                 revents: 0,
             },
+            // A negative descriptor is ignored by ppoll(2).
+            libc::pollfd {
+                fd: wake.map_or(-1, |fd| fd.as_raw_fd()),
+                events: libc::POLLIN,
+                revents: 0,
+            },
         ];
         // ppoll(2) rather than poll(2): a frame due in 0.7 ms must not wait 1 ms.
         let timeout = libc::timespec {
             tv_sec: libc::time_t::try_from(wait.as_secs()).unwrap_or(libc::time_t::MAX),
             tv_nsec: libc::c_long::from(wait.subsec_nanos() as i32),
         };
-        // SAFETY: `fds` is a valid array of two pollfd and `timeout` a valid timespec,
+        // SAFETY: `fds` is a valid array of three pollfd and `timeout` a valid timespec,
         // both outliving the call; no signal mask is given.
         let ready = unsafe {
             libc::ppoll(
@@ -406,12 +478,31 @@ impl<S: PermanentStore> IoDevice<S> {
                 CmEvent::DataExchange => tracing::info!("IO AR: ApplicationReady confirmed"),
                 CmEvent::Ended(end) => {
                     tracing::info!(?end, "IO AR ended");
+                    self.close_alarms(match end {
+                        ArEnd::Released => AlarmClose::Released,
+                        ArEnd::ApplicationReadyUnanswered => AlarmClose::ApplicationReadyUnanswered,
+                        ArEnd::Aborted => AlarmClose::Aborted,
+                        ArEnd::Replaced => AlarmClose::Replaced,
+                    })?;
                     self.exchange = None;
                     on_event(DeviceEvent::Ended(SessionEnd::Ar(end)));
                 }
+                CmEvent::ImWritten => self.keep_im_records(),
             }
         }
         Ok(())
+    }
+
+    /// Stores I&M1..4 after a controller wrote them; a failure is logged: the values are
+    /// in use until the next start.
+    fn keep_im_records(&self) {
+        let Some(file) = &self.im_file else {
+            return;
+        };
+        match file.save(self.cm.im_records()) {
+            Ok(()) => tracing::info!("I&M1..4 written by the controller and stored"),
+            Err(error) => tracing::error!(%error, "I&M1..4 written by the controller not stored"),
+        }
     }
 
     /// The diagnosis alarms of the AR `exchange` sets up, when it has an alarm CR.
