@@ -43,13 +43,14 @@
 //! data-hold time), [`device`] (identity; DAP, interface, port, SRCI module), [`cm`] (the
 //! DCE/RPC envelope, the Connect request on `pnio`'s codecs, IOCR acceptance, the
 //! ModuleDiff content, the Connect response blocks with the ModuleDiffBlock, records
-//! (I&M0..4, RealIdentificationData, the diagnosis records), and the AR state machine:
+//! (I&M0..4, RealIdentificationData, the diagnosis records, PDRealData with the
+//! interface's and the port's real data), and the AR state machine:
 //! Connect, Write, PrmEnd, ApplicationReady with its retries, Release, Read), [`alarm`]
 //! (the diagnosis alarm of a robot error over `pnio`'s RTA channel, and the ERR-RTA that
 //! closes the alarm endpoint when the AR ends). Shell:
 //! [`link`] (AF_PACKET socket, the DCP service, the file store, the interface's IPv4
-//! address over rtnetlink, and the IO device that polls the raw and the UDP socket
-//! together); `src/bin/profinet-dcp.rs` runs the DCP
+//! address over rtnetlink, the port's link from sysfs, read again on rtnetlink's link
+//! changes, and the IO device that polls the raw and the UDP socket together); `src/bin/profinet-dcp.rs` runs the DCP
 //! responder, or with `--srci-echo` the whole device with an echoing SRCI module.
 
 pub mod alarm;

@@ -184,16 +184,13 @@ fn tshark() -> Option<PathBuf> {
     found
 }
 
-/// Starts a capture of PROFINET frames in the PLC namespace; waits until it runs.
-fn start_capture(tshark: &Path, namespaces: &VethPair, file: &Path) -> Running {
+/// Capture filter of the PROFINET frames (DCP, RT, alarms).
+const PROFINET_FRAMES: &str = "ether proto 0x8892";
+
+/// Starts a capture of what `filter` passes in the PLC namespace; waits until it runs.
+fn start_capture(tshark: &Path, namespaces: &VethPair, file: &Path, filter: &str) -> Running {
     let child = VethPair::command(&namespaces.plc, tshark)
-        .args([
-            "-i",
-            &namespaces.plc_interface,
-            "-f",
-            "ether proto 0x8892",
-            "-w",
-        ])
+        .args(["-i", &namespaces.plc_interface, "-f", filter, "-w"])
         .arg(file)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -241,7 +238,7 @@ fn profinet_py_discovers_renames_signals_and_resets_the_device() {
     let capture_file = work.join("dcp.pcapng");
     let mut capture = tshark
         .as_deref()
-        .map(|tshark| start_capture(tshark, &namespaces, &capture_file));
+        .map(|tshark| start_capture(tshark, &namespaces, &capture_file, PROFINET_FRAMES));
     let mac = namespaces.device_mac().expect("device MAC");
     let mut device = start_device(&namespaces, &store, &[]);
 
@@ -505,6 +502,174 @@ fn a_dcp_set_ip_configures_the_interface_and_i_and_m_records_persist() {
     let _ = std::fs::remove_dir_all(&work);
 }
 
+/// The port link states (up or not) the device logged, in order.
+fn port_links(log: &Path) -> Vec<bool> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    // The log is coloured: drop the escape sequences.
+    let mut plain = String::with_capacity(text.len());
+    let mut in_escape = false;
+    for c in text.chars() {
+        match c {
+            '\u{1b}' => in_escape = true,
+            'm' if in_escape => in_escape = false,
+            _ if !in_escape => plain.push(c),
+            _ => {}
+        }
+    }
+    plain
+        .lines()
+        .filter(|line| line.contains("port link"))
+        .filter_map(|line| {
+            if line.contains("up=true") {
+                Some(true)
+            } else if line.contains("up=false") {
+                Some(false)
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// Waits until the device has logged the port link states `states`.
+fn wait_for_port_links(log: &Path, states: &[bool]) {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while port_links(log) != states {
+        assert!(
+            Instant::now() < deadline,
+            "port link states {:?} logged, {states:?} expected",
+            port_links(log)
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Lowercase hex of `text`'s bytes.
+fn hex(text: &[u8]) -> String {
+    text.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+#[test]
+fn profinet_py_reads_pd_real_data_with_the_interface_and_the_port_s_link() {
+    let _serial = one_at_a_time();
+    if !running_as_root("profinet_py_reads_pd_real_data_with_the_interface_and_the_port_s_link") {
+        return;
+    }
+    let venv = profinet_py_venv();
+    let tshark = tshark();
+    let namespaces = namespaces('r');
+    let work = std::env::temp_dir().join(format!("profinet-pdreal-netns-{}", std::process::id()));
+    std::fs::create_dir_all(&work).expect("work folder");
+    let store = work.join("station");
+    let capture_file = work.join("pdreal.pcapng");
+    let mut capture = tshark
+        .as_deref()
+        .map(|tshark| start_capture(tshark, &namespaces, &capture_file, "udp port 34964"));
+    let mac = namespaces.device_mac().expect("device MAC");
+    let log_file = work.join("device.log");
+    let log = std::fs::File::create(&log_file).expect("log file");
+    let command = VethPair::command(
+        &namespaces.device,
+        Path::new(env!("CARGO_BIN_EXE_profinet-dcp")),
+    );
+    let mut device = start_device_with(
+        command,
+        &namespaces,
+        &store,
+        &["--srci-echo", "64"],
+        log.into(),
+    );
+
+    // PDRealData as profinet-py reads it (on the DAP): the interface's MultipleBlockHeader
+    // (slot 0, subslot 0x8000) with PDInterfaceDataReal, then the port's (0x8001) with
+    // PDPortDataReal.
+    let data = read_record(&venv, &namespaces, "0", "1", "0xF841");
+    let chassis = format!("{:02x}{}", FACTORY_NAME.len(), hex(FACTORY_NAME.as_bytes()));
+    let mac_hex: String = mac.split(':').collect::<String>().to_lowercase();
+    // 192.168.77.50, 255.255.255.0, no gateway.
+    let addresses = "c0a84d32ffffff0000000000";
+    assert!(
+        data.starts_with("04000030010000000000000000008000"),
+        "{data}"
+    );
+    assert!(
+        data[32..].starts_with(&format!("024000200100{chassis}")),
+        "{data}"
+    );
+    assert!(data.contains(&mac_hex), "MAC {mac_hex} in {data}");
+    assert!(data.contains(addresses), "{data}");
+    // Padding, slot 0, subslot 0x8001, OwnPortID, no peers.
+    let port = format!("0000000080010{:x}{}00", "port-001".len(), hex(b"port-001"));
+    assert!(data.contains(&format!("020f00280100{port}")), "{data}");
+    // A veth has no MAUType (it says 10000 Mbit/s): 100BASE-TX FD; the link is up.
+    assert!(data.contains("00100000000000000000000000010000"), "{data}");
+    assert!(data.ends_with("00000001"), "MediaType copper in {data}");
+
+    // The same blocks on their own submodules.
+    let interface = read_record(&venv, &namespaces, "0", "32768", "0x8080");
+    assert!(
+        data.contains(&interface) && interface.starts_with("0240"),
+        "{interface}"
+    );
+    let port = read_record(&venv, &namespaces, "0", "32769", "0x802A");
+    assert!(data.ends_with(&port) && port.starts_with("020f"), "{port}");
+
+    // The PLC's end of the cable goes down and up again: the device sees its port's
+    // link change when it happens (not only at the next Read) and reports it up again.
+    let plc_link = |state: &str| {
+        let output = run(Command::new("ip").args([
+            "-n",
+            &namespaces.plc,
+            "link",
+            "set",
+            &namespaces.plc_interface,
+            state,
+        ]));
+        assert!(output.status.success(), "ip link set {state}");
+    };
+    plc_link("down");
+    wait_for_port_links(&log_file, &[true, false]);
+    plc_link("up");
+    wait_for_port_links(&log_file, &[true, false, true]);
+    // A fresh Neighbour lookup after the carrier came back may take a moment.
+    std::thread::sleep(Duration::from_millis(500));
+    assert_eq!(
+        read_record(&venv, &namespaces, "0", "32769", "0x802A"),
+        port
+    );
+    device.interrupt_and_wait();
+    // dumpcap writes what it received a moment ago only after a while.
+    std::thread::sleep(Duration::from_millis(500));
+
+    if let (Some(tshark), Some(capture)) = (tshark.as_deref(), capture.as_mut()) {
+        capture.interrupt_and_wait();
+        let (summary, malformed) = decode(tshark, &capture_file);
+        eprintln!("{summary}");
+        let decoded = run(Command::new(tshark).arg("-r").arg(&capture_file).arg("-V"));
+        let decoded = String::from_utf8_lossy(&decoded.stdout);
+        assert!(
+            summary.contains("44 bytes, PDPortDataReal"),
+            "no PDPortDataReal response captured:\n{summary}"
+        );
+        for field in [
+            "OwnChassisID: rc-robot",
+            "IPAddress: 192.168.77.50",
+            "OwnPortID: port-001",
+            "NumberOfPeers: 0",
+            "MAUType: 100BASETXFD (0x0010)",
+            "LinkState.Link: up (0x01)",
+            "MediaType: Copper cable",
+        ] {
+            assert!(decoded.contains(field), "{field} not decoded:\n{decoded}");
+        }
+        assert!(
+            malformed.trim().is_empty(),
+            "malformed frames {malformed}in:\n{summary}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&work);
+}
+
 /// The intervals between our input frames (FrameID `frame_id`) in the capture, sorted, in
 /// milliseconds.
 fn input_frame_intervals(tshark: &Path, file: &Path, frame_id: &str) -> Vec<f64> {
@@ -539,7 +704,7 @@ fn profinet_py_connects_and_exchanges_cyclic_data_with_the_srci_module() {
     let capture_file = work.join("rt.pcapng");
     let mut capture = tshark
         .as_deref()
-        .map(|tshark| start_capture(tshark, &namespaces, &capture_file));
+        .map(|tshark| start_capture(tshark, &namespaces, &capture_file, PROFINET_FRAMES));
     let mac = namespaces.device_mac().expect("device MAC");
     let mut device = start_device(&namespaces, &work.join("station"), &["--srci-echo", "64"]);
     let gsdml = repository().join("config/GSDML-V2.41-rc-SRCI-20261122.xml");

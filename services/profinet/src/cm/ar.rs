@@ -32,9 +32,11 @@ use super::connect_response::{ConnectAnswer, LOCAL_ALARM_REFERENCE, connect_resp
 use super::im::ImRecords;
 use super::iocr::{AcceptedIocr, IocrRefusal, accept_iocr};
 use super::module_diff::{SubmoduleDiff, module_diff};
+use super::pd_real::{InterfaceReal, PortLink};
 use super::record::{self, Identification, RecordSources, WrittenRecords};
 use super::rpc::{self, Call, RpcPdu};
 use crate::alarm::AlarmCr;
+use crate::dcp::station::IpParameter;
 use crate::device::{DeviceModel, SRCI_SLOT, SRCI_SUBSLOT};
 use crate::ethernet::MacAddress;
 use crate::rt::c_sdu::CSduLayout;
@@ -211,6 +213,10 @@ pub struct Cm {
     next_seq_num: u32,
     answered: Option<Answered>,
     robot_error: bool,
+    /// The interface's IP parameter, as PDInterfaceDataReal reports it.
+    ip: IpParameter,
+    /// The port's link, as PDPortDataReal reports it.
+    port: PortLink,
 }
 
 impl Cm {
@@ -225,7 +231,19 @@ impl Cm {
             next_seq_num: 0,
             answered: None,
             robot_error: false,
+            ip: IpParameter::UNSET,
+            port: PortLink::default(),
         }
+    }
+
+    /// The interface's IP parameter now (DCP or the configuration set it).
+    pub fn set_ip(&mut self, ip: IpParameter) {
+        self.ip = ip;
+    }
+
+    /// The port's link now, as the interface reports it.
+    pub fn set_port_link(&mut self, link: PortLink) {
+        self.port = link;
     }
 
     /// Whether the robot has an error now: the diagnosis records report it.
@@ -541,6 +559,12 @@ impl Cm {
             identification: &self.device.identification,
             im: &self.device.im,
             robot_error: self.robot_error,
+            interface: InterfaceReal {
+                chassis_id: &self.name_of_station,
+                mac: self.device.mac,
+                ip: self.ip,
+            },
+            port: self.port,
         };
         match record::read_record(&request, &sources) {
             Ok(data) => (PnioStatus::OK, build_read_res(&request, &data)),
@@ -1137,6 +1161,42 @@ mod tests {
         cm.set_robot_error(true);
         let faulty = blocks_of(send(&mut cm, &read(&connect, 0xf80c, 12)));
         assert_eq!(faulty[64..66], [0x00, 0x10]);
+    }
+
+    #[test]
+    fn pd_real_data_reports_the_station_s_name_addresses_and_link() {
+        let mut cm = p_net();
+        let connect = udp("connect_req");
+        send(&mut cm, &connect);
+        let ip = IpParameter {
+            address: std::net::Ipv4Addr::new(192, 168, 0, 50),
+            subnet_mask: std::net::Ipv4Addr::new(255, 255, 255, 0),
+            gateway: std::net::Ipv4Addr::UNSPECIFIED,
+        };
+        cm.set_ip(ip);
+        cm.set_name_of_station("cell1-robot");
+        let link = PortLink {
+            mau_type: crate::cm::pd_real::MauType::BASE_T_1000_FD,
+            up: true,
+        };
+        cm.set_port_link(link);
+        let pdu = send(&mut cm, &read(&connect, 0xf841, 11))
+            .datagram
+            .unwrap()
+            .pdu;
+        let Ok(RpcPdu::Response { status, blocks, .. }) = rpc::parse(&pdu) else {
+            panic!("not a response");
+        };
+        assert!(status.is_ok());
+        let interface = InterfaceReal {
+            chassis_id: "cell1-robot",
+            mac: MacAddress([0x8c, 0xf3, 0x19, 0xcd, 0x19, 0xf8]),
+            ip,
+        };
+        let expected = crate::cm::pd_real::pd_real_data(&interface, link);
+        // The IODReadResHeader (64 bytes) with RecordDataLength, then the record.
+        assert_eq!(blocks[64..], expected);
+        assert_eq!(blocks[36..40], (expected.len() as u32).to_be_bytes());
     }
 
     /// The golden Connect turned into profinet-py's style: StartupMode Legacy, RTClass 1,

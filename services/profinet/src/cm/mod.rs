@@ -8,5 +8,6 @@ pub mod diagnosis;
 pub mod im;
 pub mod iocr;
 pub mod module_diff;
+pub mod pd_real;
 pub mod record;
 pub mod rpc;

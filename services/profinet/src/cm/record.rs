@@ -1,5 +1,5 @@
 //! Record data: what a Read returns (I&M0 to I&M4, RealIdentificationData, the diagnosis
-//! records) and what a Write does with each record (PDInterfaceAdjust kept, I&M1 to I&M4
+//! records, the physical-device records of [`super::pd_real`]) and what a Write does with each record (PDInterfaceAdjust kept, I&M1 to I&M4
 //! taken, the rest refused by name), with the Write response carrying one PNIOStatus per
 //! record. An index this device does not have is answered with PNIOStatus "invalid
 //! index" (0xDE/0xDF 0x80 0xB0), never left unanswered.
@@ -15,7 +15,13 @@ use pnio::rpc::Drep;
 
 use super::diagnosis::{DiagnosisRecord, Scope};
 use super::im::{IM_SUPPORTED, ImRecords, ImWriteError};
-use crate::device::{API, DeviceModel, INTERFACE_SUBSLOT, SRCI_SLOT, SRCI_SUBSLOT};
+use super::pd_real::{
+    INDEX_PD_INTERFACE_DATA_REAL, INDEX_PD_PORT_DATA_REAL, INDEX_PD_REAL_DATA, InterfaceReal,
+    PortLink, pd_interface_data_real, pd_port_data_real, pd_real_data,
+};
+use crate::device::{
+    API, DAP_SLOT, DeviceModel, INTERFACE_SUBSLOT, PORT_SUBSLOT, SRCI_SLOT, SRCI_SUBSLOT,
+};
 
 /// Index of I&M0.
 pub const INDEX_IM0: u16 = 0xaff0;
@@ -24,6 +30,10 @@ pub const INDEX_IM0: u16 = 0xaff0;
 pub const INDEX_REAL_IDENTIFICATION_DATA: u16 = 0xf000;
 /// Index of PDInterfaceAdjust (interface submodule).
 pub const INDEX_PD_INTERFACE_ADJUST: u16 = 0x8071;
+/// Index of PDPortDataCheck (port submodule): the partner port a project expects.
+pub const INDEX_PD_PORT_DATA_CHECK: u16 = 0x802b;
+/// Index of PDPortDataAdjust (port submodule): boundaries and MAU settings of the port.
+pub const INDEX_PD_PORT_DATA_ADJUST: u16 = 0x802f;
 /// BlockType of RealIdentificationData.
 const BLOCK_REAL_IDENTIFICATION_DATA: u16 = 0x0013;
 /// Fixed part of an IODWriteResHeader body after its block header.
@@ -98,6 +108,10 @@ pub struct RecordSources<'a> {
     pub im: &'a ImRecords,
     /// The robot has an error: the SRCI submodule's diagnosis.
     pub robot_error: bool,
+    /// The interface submodule's station name and addresses.
+    pub interface: InterfaceReal<'a>,
+    /// The port's link.
+    pub port: PortLink,
 }
 
 /// The record a Read asks for.
@@ -125,13 +139,18 @@ pub fn read_record(request: &ReadReq, sources: &RecordSources<'_>) -> Result<Vec
     if request.api != API || model.submodule(request.slot, request.subslot).is_none() {
         return Err(invalid_slot(false));
     }
-    match request.index {
-        INDEX_IM0 => Ok(encode_im0(
+    match (request.slot, request.subslot, request.index) {
+        (_, _, INDEX_PD_REAL_DATA) => Ok(pd_real_data(&sources.interface, sources.port)),
+        (DAP_SLOT, INTERFACE_SUBSLOT, INDEX_PD_INTERFACE_DATA_REAL) => {
+            Ok(pd_interface_data_real(&sources.interface))
+        }
+        (DAP_SLOT, PORT_SUBSLOT, INDEX_PD_PORT_DATA_REAL) => Ok(pd_port_data_real(sources.port)),
+        (_, _, INDEX_IM0) => Ok(encode_im0(
             sources.identification.vendor_id,
             &sources.identification.im0,
             IM_SUPPORTED,
         )),
-        index => sources.im.read(index).ok_or(invalid_index(false)),
+        (_, _, index) => sources.im.read(index).ok_or(invalid_index(false)),
     }
 }
 
@@ -172,10 +191,18 @@ fn count(n: usize) -> u16 {
 pub struct WrittenRecords {
     /// The last PDInterfaceAdjust record (its data, block header included).
     pub pd_interface_adjust: Option<Vec<u8>>,
+    /// The last PDPortDataCheck record. Kept, not checked: without LLDP the device knows
+    /// no neighbour to compare, and refusing it would fail the start-up of a project that
+    /// configures the partner port.
+    pub pd_port_data_check: Option<Vec<u8>>,
+    /// The last PDPortDataAdjust record, kept as written (the port has no settings to
+    /// adjust: boundaries concern multicast forwarding of a switch port, which it is not).
+    pub pd_port_data_adjust: Option<Vec<u8>>,
 }
 
 /// Applies one record of a Write and returns its status: PDInterfaceAdjust on the
-/// interface submodule is kept, I&M1 to I&M4 (on any submodule, one set per device) go
+/// interface submodule and PDPortDataCheck/PDPortDataAdjust on the port submodule are
+/// kept, I&M1 to I&M4 (on any submodule, one set per device) go
 /// to `im`; records of submodules this device does not have, and indices it does not
 /// know, are refused.
 pub fn write_record(
@@ -197,6 +224,14 @@ pub fn write_record(
     match (record.subslot, record.index) {
         (INTERFACE_SUBSLOT, INDEX_PD_INTERFACE_ADJUST) => {
             kept.pd_interface_adjust = Some(record.data.clone());
+            PnioStatus::OK
+        }
+        (PORT_SUBSLOT, INDEX_PD_PORT_DATA_CHECK) => {
+            kept.pd_port_data_check = Some(record.data.clone());
+            PnioStatus::OK
+        }
+        (PORT_SUBSLOT, INDEX_PD_PORT_DATA_ADJUST) => {
+            kept.pd_port_data_adjust = Some(record.data.clone());
             PnioStatus::OK
         }
         _ => invalid_index(true),
@@ -251,8 +286,19 @@ mod tests {
             identification: &identification,
             im: &ImRecords::default(),
             robot_error,
+            interface: interface(),
+            port: PortLink::default(),
         };
         read_record(request, &sources)
+    }
+
+    /// The interface the reads of [`read`] report.
+    fn interface() -> InterfaceReal<'static> {
+        InterfaceReal {
+            chassis_id: "rc-robot",
+            mac: crate::ethernet::MacAddress([2, 0, 0, 0, 0, 1]),
+            ip: crate::dcp::station::IpParameter::UNSET,
+        }
     }
 
     /// The PNIO blocks of a golden request.
@@ -295,7 +341,7 @@ mod tests {
         elsewhere.slot = 7;
         assert_eq!(read(&elsewhere, false), Err(invalid_slot(false)));
         let mut other = request;
-        for index in [0xaff5, 0xf841, 0x8028, 0x1234] {
+        for index in [0xaff5, 0x802a, 0x8080, 0x8028, 0x1234] {
             other.index = index;
             assert_eq!(
                 read(&other, false),
@@ -353,6 +399,28 @@ mod tests {
         assert_eq!(read(&request, true), Err(invalid_slot(false)));
         (request.slot, request.index) = (5, 0xc00a);
         assert_eq!(read(&request, true), Err(invalid_slot(false)));
+    }
+
+    #[test]
+    fn the_physical_device_records_are_read_where_they_belong() {
+        let mut request = ReadReq::parse(&blocks("im0_read_req")).unwrap();
+        // PDRealData on the DAP, as profinet-py reads it, and on the SRCI submodule.
+        for (slot, subslot) in [(DAP_SLOT, DAP_SUBSLOT), (SRCI_SLOT, SRCI_SUBSLOT)] {
+            (request.slot, request.subslot, request.index) = (slot, subslot, 0xf841);
+            let expected = pd_real_data(&interface(), PortLink::default());
+            assert_eq!(read(&request, false), Ok(expected));
+        }
+        (request.slot, request.subslot, request.index) = (DAP_SLOT, INTERFACE_SUBSLOT, 0x8080);
+        let expected = pd_interface_data_real(&interface());
+        assert_eq!(read(&request, false), Ok(expected));
+        (request.slot, request.subslot, request.index) = (DAP_SLOT, PORT_SUBSLOT, 0x802a);
+        let expected = pd_port_data_real(PortLink::default());
+        assert_eq!(read(&request, false), Ok(expected));
+        // Each on its own submodule only.
+        request.subslot = INTERFACE_SUBSLOT;
+        assert_eq!(read(&request, false), Err(invalid_index(false)));
+        (request.subslot, request.index) = (PORT_SUBSLOT, 0x8080);
+        assert_eq!(read(&request, false), Err(invalid_index(false)));
     }
 
     #[test]
@@ -416,5 +484,39 @@ mod tests {
             let foreign = record.slot == 3 || record.slot == 4;
             assert_eq!(*status != PnioStatus::OK, foreign, "{record:?}");
         }
+    }
+
+    #[test]
+    fn the_port_s_expected_topology_is_kept_on_the_port_only() {
+        let mut kept = WrittenRecords::default();
+        let mut im = ImRecords::default();
+        let record = |subslot, index| Record {
+            seq: 0,
+            ar_uuid: pnio::rpc::uuid::Uuid::NIL,
+            api: API,
+            slot: DAP_SLOT,
+            subslot,
+            index,
+            data: vec![0x02, 0x00, 0x00, 0x08, 0x01, 0x00, 0x00, 0x00, 0x80, 0x01, 0x00, 0x00],
+        };
+        for index in [INDEX_PD_PORT_DATA_CHECK, INDEX_PD_PORT_DATA_ADJUST] {
+            let written = record(PORT_SUBSLOT, index);
+            assert_eq!(
+                write_record(&written, &model(), &mut kept, &mut im),
+                PnioStatus::OK
+            );
+            assert_ne!(
+                write_record(
+                    &record(INTERFACE_SUBSLOT, index),
+                    &model(),
+                    &mut kept,
+                    &mut im
+                ),
+                PnioStatus::OK
+            );
+        }
+        let expected = Some(record(PORT_SUBSLOT, 0).data);
+        assert_eq!(kept.pd_port_data_check, expected);
+        assert_eq!(kept.pd_port_data_adjust, expected);
     }
 }

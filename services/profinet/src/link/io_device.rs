@@ -1,13 +1,14 @@
-//! The IO-device shell: one raw socket (DCP and the cyclic frames) and one UDP socket
-//! (PNIO-CM on port 34964), polled together on the caller's thread, driving the pure
-//! [`DcpService`] responder, the [`Cm`] state machine and the cyclic [`Provider`] and
-//! [`Consumer`].
+//! The IO-device shell: one raw socket (DCP and the cyclic frames), one UDP socket
+//! (PNIO-CM on port 34964) and the [`LinkMonitor`], polled together on the caller's
+//! thread, driving the pure [`DcpService`] responder, the [`Cm`] state machine and the
+//! cyclic [`Provider`] and [`Consumer`]. The port's link (PDPortDataReal) is read at
+//! start and again when the kernel announces a link change.
 //!
 //! The caller gives the robot→PLC telegram to send and whether the robot has an error,
 //! and receives the PLC→robot telegrams and the AR's events. The robot error is also
 //! the diagnosis alarm of the SRCI submodule ([`DiagnosisAlarms`]). In data exchange
-//! nothing here allocates but an alarm when the robot error changes: frames go through
-//! buffers allocated at start-up.
+//! nothing here allocates but an alarm when the robot error changes and the reading of
+//! the port's link when a link changes: frames go through buffers allocated at start-up.
 
 use std::io;
 use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
@@ -18,9 +19,12 @@ use pnio::rpc::PNIO_UDP_PORT;
 
 use super::dcp_service::DcpService;
 use super::file_store::ImFile;
+use super::link_monitor::{LinkMonitor, LinkMonitorError};
+use super::port_link::read_port_link;
 use super::raw_socket::{RawSocket, RawSocketError};
 use crate::alarm::{AlarmClose, AlarmFailure, AlarmOutput, DiagnosisAlarms};
 use crate::cm::ar::{ArEnd, Cm, CmDevice, CmEvent, CmOutput, CyclicExchange};
+use crate::cm::pd_real::PortLink;
 use crate::dcp::responder::DcpResponder;
 use crate::dcp::station::{IpInterface, PermanentStore};
 use crate::device::{SRCI_SLOT, SRCI_SUBSLOT};
@@ -46,6 +50,9 @@ pub enum IoDeviceError {
     /// poll(2) failed.
     #[error("poll on the PROFINET sockets failed: {0}")]
     Poll(io::Error),
+    /// The link monitor failed.
+    #[error(transparent)]
+    LinkMonitor(#[from] LinkMonitorError),
 }
 
 /// What the IO device reports to its application.
@@ -85,6 +92,10 @@ pub struct IoDevice<S: PermanentStore, I: IpInterface> {
     dcp: DcpService<S, I>,
     udp: UdpSocket,
     cm: Cm,
+    /// Announces link changes, after which the port's link is read again.
+    link_monitor: LinkMonitor,
+    /// The port's link as last read.
+    port_link: PortLink,
     /// Where I&M1..4 are kept across restarts; `None`: not kept.
     im_file: Option<ImFile>,
     exchange: Option<Exchange>,
@@ -114,12 +125,21 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
             UdpSocket::bind((Ipv4Addr::UNSPECIFIED, PNIO_UDP_PORT)).map_err(IoDeviceError::Udp)?;
         udp.set_nonblocking(true).map_err(IoDeviceError::Udp)?;
         let name = responder.current().name_of_station.as_str().to_owned();
+        let mut cm = Cm::new(device, &name);
+        cm.set_ip(responder.current().ip);
+        // Opened before the first read, so that no change between the two is missed.
+        let link_monitor = LinkMonitor::open()?;
+        let port_link = read_port_link(socket.interface());
+        log_port_link(socket.interface(), port_link);
+        cm.set_port_link(port_link);
         let dcp = DcpService::new(socket, responder);
         dcp.log_listening();
         Ok(Self {
             dcp,
             udp,
-            cm: Cm::new(device, &name),
+            cm,
+            link_monitor,
+            port_link,
             im_file,
             exchange: None,
             epoch: Instant::now(),
@@ -154,7 +174,10 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
         self.dcp.send_due(Instant::now())?;
 
         let wait = self.wait(now, max_wait);
-        let (raw_ready, udp_ready) = self.ready(wait, wake)?;
+        let (raw_ready, udp_ready, link_changed) = self.ready(wait, wake)?;
+        if link_changed && self.link_monitor.changed()? {
+            self.refresh_port_link();
+        }
         if raw_ready {
             self.receive_frames(&mut on_event)?;
         }
@@ -303,13 +326,13 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
         wait
     }
 
-    /// Waits up to `wait` for the raw or the UDP socket, or `wake`; which sockets have
-    /// something to read.
+    /// Waits up to `wait` for the raw or the UDP socket, the link monitor, or `wake`;
+    /// which of the raw socket, the UDP socket and the link monitor have something to read.
     fn ready(
         &self,
         wait: Duration,
         wake: Option<BorrowedFd<'_>>,
-    ) -> Result<(bool, bool), IoDeviceError> {
+    ) -> Result<(bool, bool, bool), IoDeviceError> {
         let mut fds = [
             libc::pollfd {
                 fd: self.dcp.socket().as_fd().as_raw_fd(),
@@ -318,6 +341,11 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
             },
             libc::pollfd {
                 fd: self.udp.as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            },
+            libc::pollfd {
+                fd: self.link_monitor.as_fd().as_raw_fd(),
                 events: libc::POLLIN,
                 revents: 0,
             },
@@ -333,7 +361,7 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
             tv_sec: libc::time_t::try_from(wait.as_secs()).unwrap_or(libc::time_t::MAX),
             tv_nsec: libc::c_long::from(wait.subsec_nanos() as i32),
         };
-        // SAFETY: `fds` is a valid array of three pollfd and `timeout` a valid timespec,
+        // SAFETY: `fds` is a valid array of four pollfd and `timeout` a valid timespec,
         // both outliving the call; no signal mask is given.
         let ready = unsafe {
             libc::ppoll(
@@ -346,11 +374,15 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
         if ready < 0 {
             let error = io::Error::last_os_error();
             if error.kind() == io::ErrorKind::Interrupted {
-                return Ok((false, false));
+                return Ok((false, false, false));
             }
             return Err(IoDeviceError::Poll(error));
         }
-        Ok((fds[0].revents != 0, fds[1].revents != 0))
+        Ok((
+            fds[0].revents != 0,
+            fds[1].revents != 0,
+            fds[2].revents != 0,
+        ))
     }
 
     fn receive_frames(
@@ -374,8 +406,10 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
                 FrameUse::DcpGetSet | FrameUse::DcpIdentifyRequest
                     if self.dcp.on_frame(frame)? =>
                 {
-                    let name = self.dcp.responder().current().name_of_station.as_str();
-                    self.cm.set_name_of_station(name);
+                    let current = self.dcp.responder().current();
+                    self.cm
+                        .set_name_of_station(current.name_of_station.as_str());
+                    self.cm.set_ip(current.ip);
                 }
                 FrameUse::Cyclic { .. } => {
                     let Some(exchange) = &mut self.exchange else {
@@ -421,6 +455,17 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
                 Ok(output) => self.apply(output, on_event)?,
                 Err(error) => tracing::debug!(%error, %from, "PNIO-CM datagram ignored"),
             }
+        }
+    }
+
+    /// Reads the port's link again after a link change (of any interface: the kernel
+    /// announces them all), for the Reads of PDPortDataReal and PDRealData.
+    fn refresh_port_link(&mut self) {
+        let link = read_port_link(self.dcp.socket().interface());
+        if self.port_link != link {
+            log_port_link(self.dcp.socket().interface(), link);
+            self.port_link = link;
+            self.cm.set_port_link(link);
         }
     }
 
@@ -525,6 +570,16 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
             Err(error) => Err(IoDeviceError::Udp(error)),
         }
     }
+}
+
+/// Logs the port's link of `interface`.
+fn log_port_link(interface: &str, link: PortLink) {
+    tracing::info!(
+        interface,
+        up = link.up,
+        mau_type = format_args!("{:#06x}", link.mau_type.0),
+        "port link"
+    );
 }
 
 /// The exchange, or none (logged) when its CR cannot be served.
