@@ -232,9 +232,10 @@ pub struct MotionCommand {
     /// 3 radius).
     pub circle_mode: u8,
     /// CircPlane of `MoveCircular` (wire value: 0 XZ, 1 YZ, 2 XY of the frame in `aux_pose`'s
-    /// orientation), used by the center-with-angle and radius modes.
+    /// orientation), used by the center modes.
     pub circle_plane: u8,
-    /// PathChoice of `MoveCircular` (wire value: 0 clockwise, 1 counter-clockwise).
+    /// PathChoice of `MoveCircular` (wire value: 0 clockwise, 1 counter-clockwise; radius
+    /// mode: 0 the shorter, 1 the longer arc).
     pub path_choice: u8,
     pub reserved2: [u8; 7],
     /// BlendingParameter[0..1] in SI units: for DEFINED_VELOCITY and RAMP_OVERLAP a fraction
@@ -242,12 +243,15 @@ pub struct MotionCommand {
     pub blending_parameter: [f64; 2],
     /// `MoveCircular`: the AuxPoint in the robot base frame, units as `pose` (border mode: a
     /// point on the arc; the center modes: the centre; its orientation gives the CircPlane
-    /// axes).
+    /// axes; radius mode: the end point displaced along the normal of the arc's plane).
     pub aux_pose: [f64; 6],
     /// `MoveCircular` CENTER_WITH_ANGLE: the angle to travel (rad).
     pub circle_angle_rad: f64,
     /// `MoveCircular` RADIUS: the radius of the arc (m).
     pub circle_radius_m: f64,
+    /// `MoveCircular` CENTER: how far (m) the end may lie off the circle the start gives
+    /// (the PLC's Tolerance); 0 = the planner's default.
+    pub circle_tolerance_m: f64,
 }
 
 /// How a move's target is given (`MotionCommand::target_reference`). A relative target is
@@ -341,6 +345,7 @@ impl MotionCommand {
             aux_pose: [0.0; 6],
             circle_angle_rad: 0.0,
             circle_radius_m: 0.0,
+            circle_tolerance_m: 0.0,
         }
     }
 }

@@ -143,7 +143,16 @@ fn timing_rows(t: &Timings) -> Vec<TimingRow> {
         measured("FK (Kinematics::flange)", false, &t.fk),
         measured("plan MoveAxes (JointMove::plan)", true, &t.plan_joint),
         measured("plan MoveLinear (LinearMove::plan)", true, &t.plan_linear),
-        measured("TOPP solves of one MoveLinear (clarabel)", true, &t.topp),
+        measured(
+            "TOPP-RA solve of one MoveLinear (jerk-limited)",
+            true,
+            &t.topp,
+        ),
+        measured(
+            "conic TOPP of one MoveLinear (clarabel, v/a only)",
+            true,
+            &t.conic,
+        ),
     ]
 }
 
@@ -185,10 +194,18 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
             "MoveLinear / toppra, without reserve and jerk bound".into(),
             &|r| of(&second_order(&linear), &r.linear),
         ),
+        row("cross-check: conic TOPP / toppra, the same".into(), &|r| {
+            of(&conic(p), &r.linear)
+        }),
         row("scale: ruckig / toppra on the MoveAxes".into(), &|r| {
             of(&r.joint, &r.joint_toppra)
         }),
     ]
+}
+
+/// The conic problem's durations of the linear moves (velocity and acceleration only).
+fn conic(problems: &Problems) -> Vec<f64> {
+    problems.linear.iter().map(|c| c.conic_s).collect()
 }
 
 /// Our durations of the linear moves as planned.
@@ -226,7 +243,10 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
             .to_string(),
         "MoveLinear: toppra times the same joint path (our samples, cubic spline) under the \
          same joint v/a and TCP v/a limits but has no jerk limit: a lower bound, so ours is \
-         expected slower; <1.0 would mean ours breaks a v/a limit"
+         expected slower; <1.0 would mean ours breaks a v/a limit. As planned: the faster of \
+         the jerk-limited TOPP-RA table (with the stops' speed cap and stop distance) and the \
+         double S on constant bounds; without jerk bound: TOPP-RA on toppra's constraints \
+         alone (no cap, no stop distance), with the conic problem as its cross-check"
             .to_string(),
         "scale: ruckig's jerk-limited optimum over toppra's v/a-only optimum of the same \
          joint moves (straight joint lines): what the jerk limit alone costs on such moves, \
@@ -310,11 +330,14 @@ mod tests {
         assert_eq!(t.ik_all.each.count(), 5 * timing::KINEMATICS_PER_PROBLEM);
         assert_eq!(t.plan_linear.each.count(), 2 * timing::PLAN_REPEATS);
         assert_eq!(t.topp.each.count(), 2 * timing::PLAN_REPEATS);
+        assert_eq!(t.conic.each.count(), 2);
         let text = render(&results, &options);
         for expected in [
             "IK, all 8 branches",
             "plan MoveLinear",
-            "TOPP solves of one MoveLinear",
+            "TOPP-RA solve of one MoveLinear",
+            "conic TOPP of one MoveLinear",
+            "cross-check: conic TOPP / toppra",
             "without reserve and jerk bound",
             "MoveAxes / ruckig, as planned",
             "skipped: no reference environment",

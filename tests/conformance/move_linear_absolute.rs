@@ -1,15 +1,13 @@
 //! MoveLinearAbsolute: the TCP of a user tool on a straight line to a target given in a user
 //! frame, with Progress and RemainingDistance, and the refusals before the arm moves.
 
-use std::time::Duration;
-
 use plc_client::Request;
 use plc_client::request::{FrameData, ToolData};
 use shared_types::srci::message::{code, execution_mode, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
 use shared_types::srci::tables::move_linear_absolute as mla;
 
-use super::move_requests::{initialized_with_cyclic_tcp, tcp};
+use super::move_requests::{follow_tcp, initialized_with_cyclic_tcp, tcp};
 use crate::common::{
     Controller, actual_joints, expect_done, expect_error, initialize, max_deviation,
     reset_and_enable,
@@ -62,6 +60,11 @@ fn distance_from_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
     d.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
+/// Distance (mm) of the pose `p`'s position from the segment of the positions of `a`, `b`.
+fn off_line(p: [f64; 6], a: [f64; 6], b: [f64; 6]) -> f64 {
+    distance_from_segment([p[0], p[1], p[2]], [a[0], a[1], a[2]], [b[0], b[1], b[2]])
+}
+
 #[test]
 fn the_tcp_moves_on_a_straight_line_to_a_target_in_a_user_frame() {
     let (_c, mut plc) = initialized_with_cyclic_tcp("mla");
@@ -99,49 +102,22 @@ fn the_tcp_moves_on_a_straight_line_to_a_target_in_a_user_frame() {
     target[0] += 80.0;
     target[1] -= 60.0;
     target[2] -= 50.0;
-    let handle = plc
-        .task_mut()
-        .submit(&linear(
-            target,
-            1,
-            1,
-            execution_mode::SEQUENCE_PRIMARY,
-            |_| {},
-        ))
-        .expect("submit");
     // Every telegram's CartesianPosition block (in the tool and frame in use, which the move
     // made tool 1 and frame 1) must lie on the line.
     let mut worst: f64 = 0.0;
     let mut samples = 0;
     let mut remaining_seen = Vec::new();
-    plc.run_until(
-        |t| {
-            if let Some(p) = t.cyclic_position()
-                && p.tool_frame == Some((1, 1))
-                && let Some(pose) = p.cartesian
-            {
-                let d = distance_from_segment(
-                    [pose[0], pose[1], pose[2]],
-                    [start[0], start[1], start[2]],
-                    [target[0], target[1], target[2]],
-                );
-                worst = worst.max(d);
-                samples += 1;
-            }
-            let status = t.status(handle);
-            if let Some(s) = status
-                && s.state == state::ACTIVE
-                && !s.response.is_empty()
-            {
-                let r = PayloadReader::new(&s.response);
-                remaining_seen.push(r.f32(mla::response::REMAINING_DISTANCE));
-            }
-            status.is_some_and(|s| s.is_final())
-        },
-        Duration::from_secs(20),
-    )
-    .expect("the move ends");
-    let done = plc.task().status(handle).cloned().expect("status");
+    let request = linear(target, 1, 1, execution_mode::SEQUENCE_PRIMARY, |_| {});
+    let done = follow_tcp(&mut plc, &request, (1, 1), |pose, status| {
+        if let Some(pose) = pose {
+            worst = worst.max(off_line(pose, start, target));
+            samples += 1;
+        }
+        if status.state == state::ACTIVE && !status.response.is_empty() {
+            let r = PayloadReader::new(&status.response);
+            remaining_seen.push(r.f32(mla::response::REMAINING_DISTANCE));
+        }
+    });
     assert_eq!((done.state, done.code), (state::DONE, 0), "{done:?}");
     let r = PayloadReader::new(&done.response);
     assert_eq!(r.u16(mla::response::PROGRESS), 10_000);
@@ -157,6 +133,79 @@ fn the_tcp_moves_on_a_straight_line_to_a_target_in_a_user_frame() {
         max_deviation(reached, target) < 0.05,
         "{reached:?} vs {target:?}"
     );
+}
+
+/// The angle (degrees) between two orientations given as Rx, Ry, Rz (degrees).
+fn orientation_deviation(a: [f64; 6], b: [f64; 6]) -> f64 {
+    let rotation = |p: [f64; 6]| {
+        shared_types::pose::rotation_from_rpy(
+            p[3].to_radians(),
+            p[4].to_radians(),
+            p[5].to_radians(),
+        )
+    };
+    rotation(a).angle_to(&rotation(b)).to_degrees()
+}
+
+/// Runs the line to `target` with `ori_mode` (tool 0, frame 0) to DONE and checks that the
+/// TCP of every telegram kept to the line and that it ends at `target`'s position with the
+/// orientation of `orientation`; returns where it stands.
+fn line_ends_at(
+    plc: &mut crate::common::Plc,
+    target: [f64; 6],
+    ori_mode: u8,
+    orientation: [f64; 6],
+) -> [f64; 6] {
+    let start = tcp(plc, 0, 0);
+    let request = linear(target, 0, 0, execution_mode::SEQUENCE_PRIMARY, |w| {
+        w.set_u8(mla::request::ORI_MODE, ori_mode)
+    });
+    let mut worst: f64 = 0.0;
+    let done = follow_tcp(plc, &request, (0, 0), |pose, _| {
+        if let Some(pose) = pose {
+            worst = worst.max(off_line(pose, start, target));
+        }
+    });
+    assert_eq!(
+        (done.state, done.code),
+        (state::DONE, 0),
+        "OriMode {ori_mode}: {done:?}"
+    );
+    assert!(
+        worst < 0.5,
+        "OriMode {ori_mode}: {worst:.3} mm off the line"
+    );
+    let reached = tcp(plc, 0, 0);
+    assert!(
+        (0..3).all(|i| (reached[i] - target[i]).abs() < 0.05),
+        "OriMode {ori_mode}: {reached:?} vs {target:?}"
+    );
+    assert!(
+        orientation_deviation(reached, orientation) < 0.01,
+        "OriMode {ori_mode}: {reached:?} vs {orientation:?}"
+    );
+    reached
+}
+
+#[test]
+fn joint_interpolated_and_path_reach_the_target_orientation() {
+    let (_c, mut plc) = initialized_with_cyclic_tcp("mlaori");
+    reset_and_enable(&mut plc);
+    // JOINT_INTERPOLATED: on the line to the target's position and orientation.
+    let mut target = tcp(&mut plc, 0, 0);
+    target[0] += 60.0;
+    target[1] -= 40.0;
+    target[2] += 30.0;
+    target[4] += 15.0;
+    target[5] += 20.0;
+    let reached = line_ends_at(&mut plc, target, 2, target);
+    // PATH: the tangent of a line does not turn, so the whole turn to the target's
+    // orientation is spread over the line.
+    let mut back = reached;
+    back[0] -= 60.0;
+    back[2] -= 30.0;
+    back[3] += 10.0;
+    line_ends_at(&mut plc, back, 4, back);
 }
 
 #[test]
@@ -178,10 +227,6 @@ fn refusals_come_before_the_arm_moves() {
         (
             linear(home_tcp, 0, 0, 0, |w| w.set_u8(mla::request::ORI_MODE, 5)),
             code::INVALID_ORI_MODE,
-        ),
-        (
-            linear(home_tcp, 0, 0, 0, |w| w.set_u8(mla::request::ORI_MODE, 2)),
-            code::ORI_MODE_NOT_SUPPORTED,
         ),
         (linear(far, 0, 0, 0, |_| {}), code::TARGET_UNREACHABLE),
         (

@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use plc_client::response::ActualPosition;
-use plc_client::{CyclicSelection, EngineOptions, Request};
+use plc_client::{CommandStatus, CyclicSelection, EngineOptions, Request};
 use shared_types::srci::message::{execution_mode, state};
 use shared_types::srci::payload::{Field, PayloadWriter};
 use shared_types::srci::tables::{self, read_actual_position as rap};
@@ -118,4 +118,32 @@ pub fn initialized_with_cyclic_tcp(tag: &str) -> (Controller, Plc) {
     });
     initialize(&mut plc);
     (c, plc)
+}
+
+/// Submits `request` and runs cycles until it ends, giving `sample` every telegram's TCP of
+/// the CartesianPosition block when it is in `tool_frame`, and the command's status; returns
+/// the final status.
+pub fn follow_tcp(
+    plc: &mut Plc,
+    request: &Request,
+    tool_frame: (u8, u8),
+    mut sample: impl FnMut(Option<[f64; 6]>, &CommandStatus),
+) -> CommandStatus {
+    let handle = plc.task_mut().submit(request).expect("submit");
+    plc.run_until(
+        |t| {
+            let pose = t
+                .cyclic_position()
+                .filter(|p| p.tool_frame == Some(tool_frame))
+                .and_then(|p| p.cartesian);
+            let Some(status) = t.status(handle) else {
+                return false;
+            };
+            sample(pose, status);
+            status.is_final()
+        },
+        Duration::from_secs(20),
+    )
+    .expect("the move ends");
+    plc.task().status(handle).cloned().expect("status")
 }

@@ -9,9 +9,10 @@
 //!
 //! `p(s) = c + s·h·n + Rot(n, s·θ)·u·(r0 + s·(r1 − r0))`: about the axis `n` through the
 //! centre `c` by the sweep `θ > 0`, `u` the unit vector from `c` towards the start. A true
-//! circle has `r1 = r0` and `h = 0`; the CENTER and RADIUS modes accept an end up to
-//! [`TOLERANCE_M`] off the circle and close that gap evenly along the arc, so the move ends
-//! exactly at the commanded end.
+//! circle has `r1 = r0` and `h = 0`; the CENTER mode accepts an end up to the PLC's Tolerance
+//! (`circle_tolerance_m`, 0 = [`TOLERANCE_M`]) off the circle, and the RADIUS mode an end up
+//! to [`TOLERANCE_M`] off the plane of the arc; both close that gap evenly along the arc, so
+//! the move ends exactly at the commanded end.
 //!
 //! CW and CCW are seen from the tip of the CircPlane normal `a` of the AuxPoint's
 //! orientation (CircPlane XZ: its y axis, YZ: its x axis, XY: its z axis): CCW turns
@@ -21,8 +22,8 @@
 //!   point and the end, travelled from the start through the aux point to the end;
 //!   CircPlane and PathChoice are not used. Three points on one line (a triangle height
 //!   below [`COLLINEAR_M`], coincident points included) are refused.
-//! - CENTER: the centre. Start and end must be equally far from it (within
-//!   [`TOLERANCE_M`]). The arc lies in the plane of the centre, the start and the end, and
+//! - CENTER: the centre. Start and end must be equally far from it (within the
+//!   tolerance). The arc lies in the plane of the centre, the start and the end, and
 //!   PathChoice picks the way round; where that plane is not determined (the end on the line
 //!   through the centre and the start: a half or a full circle) it is the CircPlane through
 //!   the centre, and start and end must lie in it. An end at the start is a full circle.
@@ -34,20 +35,30 @@
 //!   is not used at all: OriMode FIX keeps the start orientation, the other modes turn it
 //!   with the arc (as PATH does towards the start orientation turned by the angle). The start
 //!   must lie in the CircPlane through the centre.
-//! - RADIUS: only its orientation counts (the CircPlane). Of the two circles of radius
-//!   `|circle_radius_m|` in the CircPlane through the start and the end, the one on which the
-//!   arc in the PathChoice direction is the shorter one for a positive radius, the longer
-//!   one for a negative radius. A radius below half the chord (within [`TOLERANCE_M`]) is
-//!   refused; start and end must lie in one CircPlane.
+//! - RADIUS: SRCI's AuxPoint is a vector, "the spearhead point of the perpendicular" of the
+//!   circle's plane, its length the radius (the PLCopen MC_MoveCircular definition the
+//!   CircMode text repeats). The command carries the radius in `circle_radius_m` and the
+//!   vector as the offset of `aux_pose` from the end, so that relative moves turn it with
+//!   their target. The arc turns positively about the vector (right thumb rule); of the two
+//!   circles of that radius through the start and the end in the plane normal to it,
+//!   PathChoice 0 takes the one on which the end comes after the shorter sector, 1 the
+//!   longer one (as PLCopen's PathChoice FALSE and TRUE). CircPlane and the AuxPoint's
+//!   orientation are not used. A radius below half the chord (within [`TOLERANCE_M`]) is
+//!   refused; start and end must lie in one plane normal to the vector.
 //!
 //! # Orientation
 //!
 //! OriMode 0 and 1 interpolate from the start orientation `R0` to the target's `R1` on the
-//! shortest rotation, `R(s) = exp(s·ω)·R0`; 3 FIX keeps `R0`. 4 PATH (arcs only) turns the
-//! orientation with the arc, so that it keeps its attitude to the tangent, and spreads what
-//! remains to the target evenly: `R(s) = Rot(n, s·θ)·exp(s·ω')·R0` with `ω'` the rotation
-//! vector of `Rot(n, θ)⁻¹·R1·R0⁻¹`; a target orientation equal to the start's turned with
-//! the arc gives the pure turn.
+//! shortest rotation, `R(s) = exp(s·ω)·R0`; 3 FIX keeps `R0`. 4 PATH keeps the orientation's
+//! attitude to the path's tangent ("no change of orientation in relation to the
+//! trajectory"): on a line the tangent does not turn, so the start orientation stays, as with
+//! FIX; on an arc the orientation turns with the arc and what remains to the target is spread
+//! evenly: `R(s) = Rot(n, s·θ)·exp(s·ω')·R0` with `ω'` the rotation vector of
+//! `Rot(n, θ)⁻¹·R1·R0⁻¹`; a target orientation equal to the start's turned with the arc gives
+//! the pure turn. 2 JOINT_INTERPOLATED (lines only) interpolates the wrist joints, not the
+//! orientation ([`wrist_interpolation`](crate::wrist_interpolation)): the path here carries
+//! the slerp to the target as a reference, and the orientation the joints give meets it at
+//! both ends.
 
 use core::f64::consts::{FRAC_PI_2, TAU};
 
@@ -56,8 +67,9 @@ use shared_types::ipc::{MotionCommand, MotionCommandKind, TargetReference};
 use shared_types::pose;
 use shared_types::srci::message::code;
 
-/// How far (m) the end of a CENTER or RADIUS arc may lie off the circle the start gives,
-/// and the start of a CENTER_WITH_ANGLE arc off the CircPlane through the centre.
+/// How far (m) the end of a CENTER arc may lie off the circle the start gives where the PLC
+/// leaves Tolerance at 0, the end of a RADIUS arc off the plane normal to its vector, and the
+/// start of a CENTER_WITH_ANGLE arc off the CircPlane through the centre.
 pub const TOLERANCE_M: f64 = 1e-3;
 /// Smallest height (m) of the triangle of a BORDER arc's points, and smallest radius and
 /// chord of an arc.
@@ -87,8 +99,10 @@ pub enum PathError {
     InvalidPathChoice(u8),
     #[error("the target is relative: resolve it first (targets::absolute)")]
     RelativeTarget,
-    #[error("the aux point, the angle or the radius is not finite")]
+    #[error("the aux point, the angle, the radius or the tolerance is not finite")]
     NotFinite,
+    #[error("the tolerance {0} m is negative")]
+    InvalidTolerance(f64),
     #[error("the start, the aux point and the end lie on one line")]
     Collinear,
     #[error("the start lies on the centre")]
@@ -117,6 +131,7 @@ impl PathError {
             Self::InvalidCircMode(_) | Self::InvalidCircPlane(_) | Self::InvalidPathChoice(_) => {
                 code::INVALID_MODE
             }
+            Self::InvalidTolerance(_) => code::TOLERANCE_ONLY_CENTER,
             Self::NotFinite
             | Self::Collinear
             | Self::StartOnCentre
@@ -143,20 +158,22 @@ pub fn is_cartesian(command: &MotionCommand) -> bool {
 pub enum OriMode {
     /// 0 (standard) and 1 LINEAR_INTERPOLATED: slerp on the shortest rotation to the target.
     Interpolated,
+    /// 2 JOINT_INTERPOLATED: the wrist joints move linearly to the target's (lines only).
+    JointInterpolated,
     /// 3 FIX: the start orientation all the way.
     Fix,
-    /// 4 PATH: turns with the arc (arcs only).
+    /// 4 PATH: keeps its attitude to the tangent (on a line: the start orientation).
     Path,
 }
 
 impl OriMode {
-    /// The mode of a wire value; 2 (JOINT_INTERPOLATED) is not supported.
+    /// The mode of a wire value.
     pub fn from_wire(value: u8) -> Result<Self, PathError> {
         match value {
             0 | 1 => Ok(Self::Interpolated),
+            2 => Ok(Self::JointInterpolated),
             3 => Ok(Self::Fix),
             4 => Ok(Self::Path),
-            2 => Err(PathError::OriModeNotSupported(value)),
             _ => Err(PathError::InvalidOriMode(value)),
         }
     }
@@ -277,21 +294,28 @@ fn request(command: &MotionCommand) -> Result<Request, PathError> {
     }
     let ori_mode = OriMode::from_wire(command.ori_mode)?;
     if !circular {
-        if ori_mode == OriMode::Path {
-            return Err(PathError::OriModeNotSupported(command.ori_mode));
-        }
         return Ok(Request {
             ori_mode,
             arc: None,
         });
     }
+    if ori_mode == OriMode::JointInterpolated {
+        return Err(PathError::OriModeNotSupported(command.ori_mode));
+    }
     let finite = command
         .aux_pose
         .iter()
-        .chain([&command.circle_angle_rad, &command.circle_radius_m])
+        .chain([
+            &command.circle_angle_rad,
+            &command.circle_radius_m,
+            &command.circle_tolerance_m,
+        ])
         .all(|v| v.is_finite());
     if !finite {
         return Err(PathError::NotFinite);
+    }
+    if command.circle_tolerance_m < 0.0 {
+        return Err(PathError::InvalidTolerance(command.circle_tolerance_m));
     }
     Ok(Request {
         ori_mode,
@@ -426,20 +450,21 @@ impl Circle {
     }
 
     /// CENTER: about `centre` from `start` to `end`, the way round `choice` seen from
-    /// `plane_normal`.
+    /// `plane_normal`, the end up to `tolerance` (m) off the circle.
     fn center(
         start: &Vector3<f64>,
         centre: &Vector3<f64>,
         end: &Vector3<f64>,
         plane_normal: Unit<Vector3<f64>>,
         choice: PathChoice,
+        tolerance: f64,
     ) -> Result<Self, PathError> {
         let (u0, u1) = (start - centre, end - centre);
         let (r0, r1) = (u0.norm(), u1.norm());
         if r0 < COLLINEAR_M {
             return Err(PathError::StartOnCentre);
         }
-        if (r0 - r1).abs() > TOLERANCE_M {
+        if (r0 - r1).abs() > tolerance {
             return Err(PathError::UnequalRadii {
                 difference: (r0 - r1).abs(),
             });
@@ -503,32 +528,42 @@ impl Circle {
         })
     }
 
-    /// RADIUS: of radius `|radius|` in the CircPlane through `start` and `end`, the shorter
-    /// arc in the direction `choice` for a positive radius, the longer one for a negative.
+    /// RADIUS: of `radius` in the plane through `start` and `end` normal to `normal`,
+    /// turning positively about `normal`; the arc on which the end comes after the longer
+    /// sector if `longer`, else the shorter one.
     fn radius(
         start: &Vector3<f64>,
         end: &Vector3<f64>,
-        plane_normal: Unit<Vector3<f64>>,
-        choice: PathChoice,
+        normal: &Vector3<f64>,
+        longer: bool,
         radius: f64,
     ) -> Result<Self, PathError> {
-        let a = plane_normal.into_inner();
         let d = end - start;
+        if d.norm() < COLLINEAR_M {
+            return Err(PathError::Coincident);
+        }
+        if radius < COLLINEAR_M || normal.norm() < COLLINEAR_M {
+            return Err(PathError::RadiusTooSmall {
+                radius,
+                chord: d.norm(),
+            });
+        }
+        let a = Unit::new_normalize(*normal);
         let rise = height_over_plane(&d, &a)?;
-        let chord = d - a * rise;
+        let chord = d - a.into_inner() * rise;
         let c = chord.norm();
         if c < COLLINEAR_M {
             return Err(PathError::Coincident);
         }
-        if radius.abs() < 0.5 * c - TOLERANCE_M || radius.abs() < COLLINEAR_M {
+        if radius < 0.5 * c - TOLERANCE_M {
             return Err(PathError::RadiusTooSmall { radius, chord: c });
         }
         let half = (radius * radius - 0.25 * c * c).max(0.0).sqrt();
         // Seen from the tip of `a`, the centre of the short CCW arc lies left of the chord.
         let left = a.cross(&chord) / c;
-        let centre = start + chord * 0.5 + left * (half * choice.sign() * radius.signum());
-        let axis = Unit::new_unchecked(a * choice.sign());
-        Ok(Self::about(&centre, axis, start, end))
+        let side = if longer { -1.0 } else { 1.0 };
+        let centre = start + chord * 0.5 + left * (half * side);
+        Ok(Self::about(&centre, a, start, end))
     }
 }
 
@@ -567,9 +602,13 @@ impl CartesianPath {
         let p0 = start.translation.vector;
         let r0 = start.rotation;
         let Some(arc) = request.arc else {
+            // The tangent of a line does not turn, so PATH spreads the whole difference to
+            // the target's orientation, as on an arc what is left after the arc's turn.
             let target_rotation = match request.ori_mode {
                 OriMode::Fix => r0,
-                OriMode::Interpolated | OriMode::Path => target.rotation,
+                OriMode::Interpolated | OriMode::JointInterpolated | OriMode::Path => {
+                    target.rotation
+                }
             };
             return Ok(Self::Line(Segment {
                 start: p0,
@@ -583,7 +622,14 @@ impl CartesianPath {
         let normal = arc.plane.normal(&aux.rotation);
         let circle = match arc.mode {
             CircMode::Border => Circle::border(&p0, &centre, &end)?,
-            CircMode::Center => Circle::center(&p0, &centre, &end, normal, arc.choice)?,
+            CircMode::Center => {
+                let tolerance = if command.circle_tolerance_m > 0.0 {
+                    command.circle_tolerance_m
+                } else {
+                    TOLERANCE_M
+                };
+                Circle::center(&p0, &centre, &end, normal, arc.choice, tolerance)?
+            }
             CircMode::CenterWithAngle => Circle::center_with_angle(
                 &p0,
                 &centre,
@@ -591,9 +637,14 @@ impl CartesianPath {
                 arc.choice,
                 command.circle_angle_rad,
             )?,
-            CircMode::Radius => {
-                Circle::radius(&p0, &end, normal, arc.choice, command.circle_radius_m)?
-            }
+            CircMode::Radius => Circle::radius(
+                &p0,
+                &end,
+                &(centre - end),
+                // PLCopen's PathChoice TRUE (here CCW, 1): the longer sector.
+                arc.choice == PathChoice::CounterClockwise,
+                command.circle_radius_m,
+            )?,
         };
         let by_angle = arc.mode == CircMode::CenterWithAngle;
         let (orientation, turns_with_path) = match request.ori_mode {
@@ -602,7 +653,10 @@ impl CartesianPath {
             OriMode::Interpolated | OriMode::Path if by_angle => {
                 (Reorientation::between(r0, &r0), true)
             }
-            OriMode::Interpolated => (Reorientation::between(r0, &target.rotation), false),
+            // `request` refuses JOINT_INTERPOLATED on arcs.
+            OriMode::Interpolated | OriMode::JointInterpolated => {
+                (Reorientation::between(r0, &target.rotation), false)
+            }
             OriMode::Path => {
                 let turn = UnitQuaternion::from_axis_angle(&circle.axis, circle.sweep);
                 let rest = turn.inverse() * target.rotation;
@@ -840,6 +894,13 @@ mod tests {
         c.pose[1] = 0.2005;
         let path = CartesianPath::new(&c, &start()).unwrap();
         assert!((position(&path, 1.0) - v(0.3, 0.2005, 0.3)).norm() < 1e-12);
+        // The PLC's Tolerance instead of the default: 0.4 mm refuses it, 3 mm takes 2 mm.
+        c.circle_tolerance_m = 4e-4;
+        assert!(matches!(refused(&c), PathError::UnequalRadii { .. }));
+        c.pose[1] = 0.202;
+        c.circle_tolerance_m = 3e-3;
+        let path = CartesianPath::new(&c, &start()).unwrap();
+        assert!((position(&path, 1.0) - v(0.3, 0.202, 0.3)).norm() < 1e-12);
         // The start on the centre.
         let p0 = start().translation.vector;
         let c = circular(1, [p0.x, p0.y, p0.z], [0.3, 0.2, 0.3]);
@@ -895,42 +956,60 @@ mod tests {
         assert!(matches!(refused(&c), PathError::OffPlane { .. }));
     }
 
+    /// A RADIUS arc from the start to `end` about the normal `normal` (its length the
+    /// radius): the AuxPoint as the planner gets it, the end displaced by the vector.
+    fn radius_arc(end: [f64; 3], normal: Vector3<f64>, longer: bool) -> MotionCommand {
+        let aux = Vector3::from(end) + normal;
+        let mut c = circular(3, aux.into(), end);
+        c.circle_radius_m = normal.norm();
+        c.path_choice = u8::from(longer);
+        // Neither the CircPlane nor the AuxPoint's orientation counts.
+        c.circle_plane = 1;
+        c.aux_pose[3..].copy_from_slice(&[0.4, -1.0, 2.0]);
+        c
+    }
+
     #[test]
-    fn radius_takes_the_shorter_arc_for_a_positive_radius() {
-        // From (0.4, 0.1, 0.3) to (0.3, 0.2, 0.3): a chord of √2·0.1.
-        let mut c = circular(3, [0.0; 3], [0.3, 0.2, 0.3]);
-        c.circle_plane = 2;
-        c.circle_radius_m = 0.1;
-        c.path_choice = 1;
-        let short_ccw = CartesianPath::new(&c, &start()).unwrap();
+    fn radius_turns_about_the_aux_vector_and_path_choice_takes_the_longer_sector() {
+        // From (0.4, 0.1, 0.3) to (0.3, 0.2, 0.3): a chord of √2·0.1, radius 0.1.
+        let end = [0.3, 0.2, 0.3];
+        let up = v(0.0, 0.0, 0.1);
+        let short_ccw = CartesianPath::new(&radius_arc(end, up, false), &start()).unwrap();
         assert_on_circle(&short_ccw, Vector3::from(CENTRE), Vector3::z(), 0.1);
         assert!((short_ccw.length() - 0.1 * PI / 2.0).abs() < 1e-12);
-        c.circle_radius_m = -0.1;
-        let long_ccw = CartesianPath::new(&c, &start()).unwrap();
+        let long_ccw = CartesianPath::new(&radius_arc(end, up, true), &start()).unwrap();
         assert_on_circle(&long_ccw, v(0.4, 0.2, 0.3), Vector3::z(), 0.1);
         assert!((long_ccw.length() - 0.1 * 1.5 * PI).abs() < 1e-12);
-        c.path_choice = 0;
-        let long_cw = CartesianPath::new(&c, &start()).unwrap();
-        assert_on_circle(&long_cw, Vector3::from(CENTRE), Vector3::z(), 0.1);
-        assert!((long_cw.length() - 0.1 * 1.5 * PI).abs() < 1e-12);
-        c.circle_radius_m = 0.1;
-        let short_cw = CartesianPath::new(&c, &start()).unwrap();
+        // The vector pointing down: clockwise seen from above.
+        let short_cw = CartesianPath::new(&radius_arc(end, -up, false), &start()).unwrap();
         assert_on_circle(&short_cw, v(0.4, 0.2, 0.3), Vector3::z(), 0.1);
-        for path in [short_ccw, long_ccw, long_cw, short_cw] {
-            assert!((position(&path, 1.0) - v(0.3, 0.2, 0.3)).norm() < 1e-12);
+        assert!((short_cw.length() - 0.1 * PI / 2.0).abs() < 1e-12);
+        let long_cw = CartesianPath::new(&radius_arc(end, -up, true), &start()).unwrap();
+        assert_on_circle(&long_cw, Vector3::from(CENTRE), Vector3::z(), 0.1);
+        for (path, normal) in [
+            (short_ccw, up),
+            (long_ccw, up),
+            (short_cw, -up),
+            (long_cw, -up),
+        ] {
+            assert!((position(&path, 1.0) - Vector3::from(end)).norm() < 1e-12);
+            // Turns positively about the vector: the right thumb rule.
+            assert!(arc_of(&path).circle.axis.dot(&normal) > 0.0);
         }
-        // Half the chord (within the tolerance) is a half circle.
-        c.circle_radius_m = 0.5 * 0.1 * 2f64.sqrt() - 5e-4;
-        let half = CartesianPath::new(&c, &start()).unwrap();
-        assert!((arc_of(&half).circle.sweep - PI).abs() < 1e-9);
-        // Too small, coincident, out of the plane.
-        c.circle_radius_m = 0.05;
+        // Half the chord (within the tolerance) is a half circle either way.
+        let half_chord = 0.5 * 0.1 * 2f64.sqrt() - 5e-4;
+        for longer in [false, true] {
+            let c = radius_arc(end, v(0.0, 0.0, half_chord), longer);
+            let half = CartesianPath::new(&c, &start()).unwrap();
+            assert!((arc_of(&half).circle.sweep - PI).abs() < 1e-9);
+        }
+        // Too small, coincident, out of the plane normal to the vector.
+        let c = radius_arc(end, v(0.0, 0.0, 0.05), false);
         assert!(matches!(refused(&c), PathError::RadiusTooSmall { .. }));
-        c.circle_radius_m = 0.1;
-        c.circle_plane = 1;
+        let c = radius_arc(end, v(0.1, 0.0, 0.0), false);
         assert!(matches!(refused(&c), PathError::OffPlane { .. }));
         let p0 = start().translation.vector;
-        c.pose[..3].copy_from_slice(p0.as_slice());
+        let c = radius_arc(p0.into(), up, false);
         assert_eq!(CartesianPath::new(&c, &start()), Err(PathError::Coincident));
     }
 
@@ -938,13 +1017,17 @@ mod tests {
     fn undefined_wire_values_are_refused_with_their_codes() {
         let base = circular(0, [0.3, 0.2, 0.3], [0.2, 0.1, 0.3]);
         type Change = fn(&mut MotionCommand);
-        let cases: [(Change, u16); 7] = [
+        let cases: [(Change, u16); 8] = [
             (|c| c.circle_mode = 4, code::INVALID_MODE),
             (|c| c.circle_plane = 3, code::INVALID_MODE),
             (|c| c.path_choice = 2, code::INVALID_MODE),
             (|c| c.ori_mode = 2, code::ORI_MODE_NOT_SUPPORTED),
             (|c| c.ori_mode = 5, code::INVALID_ORI_MODE),
             (|c| c.aux_pose[0] = f64::INFINITY, code::INVALID_POSITION),
+            (
+                |c| c.circle_tolerance_m = -1e-3,
+                code::TOLERANCE_ONLY_CENTER,
+            ),
             (|c| c.target_reference = 1, code::INTERNAL_ERROR),
         ];
         for (change, expected) in cases {
@@ -953,11 +1036,11 @@ mod tests {
             assert_eq!(validate(&c).unwrap_err().code(), expected, "{c:?}");
         }
         assert!(validate(&base).is_ok());
-        // PATH is for arcs.
+        // JOINT_INTERPOLATED is for lines.
         let mut line = base;
         line.kind = MotionCommandKind::MoveLinear as u8;
-        line.ori_mode = 4;
-        assert_eq!(validate(&line), Err(PathError::OriModeNotSupported(4)));
+        line.ori_mode = 2;
+        assert!(validate(&line).is_ok());
         line.kind = MotionCommandKind::MoveAxes as u8;
         assert_eq!(validate(&line), Err(PathError::NotAPath(1)));
     }
@@ -1014,6 +1097,39 @@ mod tests {
         assert!(CartesianPath::new(&c, &start()).unwrap().is_stationary());
     }
 
+    #[test]
+    fn orientation_modes_along_a_line() {
+        let mut c = MotionCommand::new(MotionCommandKind::MoveLinear);
+        let target = UnitQuaternion::from_euler_angles(0.5, 0.2, -0.4);
+        c.pose = pose::pose(&Isometry3::from_parts(
+            Translation3::new(0.5, 0.3, 0.1),
+            target,
+        ));
+        let r0 = start().rotation;
+        for (mode, end) in [(0, target), (1, target), (2, target), (3, r0), (4, target)] {
+            c.ori_mode = mode;
+            let path = CartesianPath::new(&c, &start()).unwrap();
+            assert!(
+                path.tcp(0.0).rotation.angle_to(&r0) < 1e-12,
+                "OriMode {mode}"
+            );
+            assert!(
+                path.tcp(1.0).rotation.angle_to(&end) < 1e-9,
+                "OriMode {mode}"
+            );
+            assert!(
+                path.tcp(0.5).rotation.angle_to(&r0.slerp(&end, 0.5)) < 1e-9,
+                "OriMode {mode}"
+            );
+        }
+        // A pure reorientation: FIX does not move, PATH turns to the target as 1 does.
+        c.pose = pose::pose(&Isometry3::from_parts(start().translation, target));
+        c.ori_mode = 3;
+        assert!(CartesianPath::new(&c, &start()).unwrap().is_stationary());
+        c.ori_mode = 4;
+        assert!(!CartesianPath::new(&c, &start()).unwrap().is_stationary());
+    }
+
     proptest! {
         /// Random BORDER arcs: every sample on the circle through the three points, the
         /// speed even (s proportional to the distance), the tangent continuous.
@@ -1059,8 +1175,8 @@ mod tests {
             prop_assert!((position(&path, 1.0) - p1).norm() < 1e-9);
         }
 
-        /// Random CENTER and RADIUS arcs in random CircPlanes start and end exactly and stay
-        /// at the radius.
+        /// Random CENTER arcs in random CircPlanes and RADIUS arcs about random vectors start
+        /// and end exactly and stay at the radius.
         #[test]
         fn random_center_and_radius_arcs_end_exactly(
             tilt in prop::array::uniform3(-PI..PI),
@@ -1068,6 +1184,7 @@ mod tests {
             angles in prop::array::uniform2(0.0f64..TAU),
             ccw in any::<bool>(),
             radius_mode in any::<bool>(),
+            upwards in any::<bool>(),
         ) {
             let rotation = UnitQuaternion::from_euler_angles(tilt[0], tilt[1], tilt[2]);
             let centre = v(0.3, -0.2, 0.4);
@@ -1075,20 +1192,27 @@ mod tests {
             let (p0, p1) = (at(angles[0]), at(angles[1]));
             prop_assume!((p1 - p0).norm() > 1e-3);
             let start = Isometry3::from_parts(Translation3::from(p0), UnitQuaternion::identity());
-            let mut c = circular(if radius_mode { 3 } else { 1 }, centre.into(), p1.into());
-            // The aux frame's XY plane is the circle's.
-            let rpy = pose::pose(&Isometry3::from_parts(Translation3::identity(), rotation));
-            c.aux_pose[3..].copy_from_slice(&rpy[3..]);
-            c.circle_plane = 2;
-            c.path_choice = u8::from(ccw);
-            c.circle_radius_m = radius;
+            // RADIUS: the vector along ± the plane normal; CENTER: the aux frame's XY plane is
+            // the circle's.
+            let sign = if upwards || !radius_mode { 1.0 } else { -1.0 };
+            let c = if radius_mode {
+                radius_arc(p1.into(), rotation * Vector3::z() * (sign * radius), ccw)
+            } else {
+                let mut c = circular(1, centre.into(), p1.into());
+                let rpy = pose::pose(&Isometry3::from_parts(Translation3::identity(), rotation));
+                c.aux_pose[3..].copy_from_slice(&rpy[3..]);
+                c.circle_plane = 2;
+                c.path_choice = u8::from(ccw);
+                c
+            };
             let path = CartesianPath::new(&c, &start).unwrap();
             prop_assert!((position(&path, 0.0) - p0).norm() < 1e-9);
             prop_assert!((position(&path, 1.0) - p1).norm() < 1e-9);
             let arc = arc_of(&path);
-            // The sense: CCW turns positively about the plane normal.
+            // The sense: CCW (CENTER) or the vector's (RADIUS) turns positively about the
+            // plane normal.
             let sense = arc.circle.axis.dot(&(rotation * Vector3::z()));
-            let expected = if ccw { 1.0 } else { -1.0 };
+            let expected = if radius_mode { sign } else if ccw { 1.0 } else { -1.0 };
             prop_assert!((sense - expected).abs() < 1e-9);
             let centre_of_arc = if radius_mode { arc.circle.centre } else { centre };
             for k in 0..=50 {
@@ -1096,7 +1220,11 @@ mod tests {
                 prop_assert!((p.norm() - radius).abs() < 1e-9);
             }
             if radius_mode {
-                prop_assert!(arc.circle.sweep <= PI + 1e-9);
+                // PathChoice 1 takes the longer sector.
+                let sweep = arc.circle.sweep;
+                let longer = sweep >= PI - 1e-9;
+                let shorter = sweep <= PI + 1e-9;
+                prop_assert!(if ccw { longer } else { shorter }, "sweep {}", sweep);
             }
         }
     }

@@ -39,7 +39,7 @@ use crate::queue::QueuedMove;
 use crate::safety_filter::{Intervention, SafetyFilter};
 use crate::sequences::{Cursor, Sequence, Sequences, overlap};
 use crate::targets;
-use crate::topp::PathTimer;
+use crate::topp::{JerkBound, PathTimer};
 
 /// Joint speed (rad/s) below which the servo feedback counts as standing still.
 const REST_VELOCITY: f64 = 1e-3;
@@ -56,7 +56,8 @@ pub struct Executor {
     kinematics: Kinematics,
     /// The UR-type geometry for configuration bits (`None` if the robot does not fit it).
     geometry: Option<ArmGeometry>,
-    /// Times Cartesian paths: with constant bounds for now (see [`PathTimer::unavailable`]).
+    /// Times Cartesian paths: jerk-limited reachability analysis, constant bounds where it
+    /// fails (see [`linear_move`]).
     path_timer: PathTimer,
     /// The last guard before the servo: every point, committed or looked ahead, passes it.
     guard: SafetyFilter,
@@ -104,7 +105,7 @@ impl Executor {
             },
             kinematics: Kinematics::new(&config.robot.kinematics),
             geometry: ArmGeometry::new(&config.robot.kinematics).ok(),
-            path_timer: PathTimer::unavailable(),
+            path_timer: PathTimer::reachability(JerkBound::Joints),
             guard: SafetyFilter::new(config.robot.limits_rad())
                 .expect("the safety filter's fixed problem layout is valid"),
             guard_stop: false,

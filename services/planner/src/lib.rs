@@ -4,14 +4,16 @@
 //! Pure cores: [`profile`] (the double-S path profile, with separate acceleration and
 //! deceleration), [`joint_move`] (synchronized PTP moves), [`cartesian_path`] (straight
 //! lines and arcs of the TCP), [`linear_move`] (Cartesian paths followed by the analytic
-//! inverse kinematics), [`topp`] (their time-optimal timing on clarabel), [`targets`]
-//! (relative targets made absolute), [`blend`] (the overlap of two moves for every
-//! BlendingMode), [`brake`] (stops on the path), [`motion`] (one tick of commanded motion),
-//! [`safety_filter`] (the last guard of every point before the servo), [`queue`] (the moves
-//! of one sequence), [`sequences`] (the primary and the secondary sequence), [`events`]
-//! (paced job events), [`executor`] (the per-tick state machine) and [`kinematics`]
-//! (forward kinematics, Jacobian, analytic inverse kinematics, configuration bits and turn
-//! numbers). [`service`] is the process loop around them.
+//! inverse kinematics, or with the wrist joints interpolated: [`wrist_interpolation`]),
+//! [`topp`] (their time-optimal timing by reachability analysis, with a conic cross-check
+//! on clarabel), [`targets`] (relative targets made absolute), [`blend`] (the overlap of
+//! two moves for every BlendingMode), [`brake`] (stops on the path), [`motion`] (one tick
+//! of commanded motion), [`safety_filter`] (the last guard of every point before the
+//! servo), [`queue`] (the moves of one sequence),
+//! [`sequences`] (the primary and the secondary sequence), [`events`] (paced job events),
+//! [`executor`] (the per-tick state machine) and [`kinematics`] (forward kinematics,
+//! Jacobian, analytic inverse kinematics, configuration bits and turn numbers). [`service`]
+//! is the process loop around them.
 
 pub mod blend;
 pub mod brake;
@@ -31,5 +33,6 @@ pub mod targets;
 #[cfg(test)]
 mod test_support;
 pub mod topp;
+pub mod wrist_interpolation;
 
 pub use service::{PlannerError, run};

@@ -1,4 +1,6 @@
-//! Time-optimal path parameterisation (TOPP) of a sampled path on the clarabel conic solver.
+//! Time-optimal path parameterisation (TOPP) of a sampled path: by reachability analysis
+//! ([`reachability`], the planner's) and as a second-order-cone problem on clarabel (the
+//! cross-check of the tests and `rc bench motion`).
 //!
 //! # Problem
 //!
@@ -20,11 +22,15 @@
 //!   stays within the limits up to that speed);
 //! - `b_0 = b_N = 0`.
 //!
+//! [`reachability`] solves it stage by stage (microseconds to a fraction of a millisecond)
+//! and bounds the jerk in its forward pass; the conic problem below takes a second or so and
+//! serves as the cross-check: without the jerk bound both find the same optimum.
+//!
+//! # The conic problem
+//!
 //! The time `Σ 2Δs/(√b_k + √b_{k+1})` is minimised through second-order-cone epigraphs:
 //! `c_k² ≤ b_k` and `d_k·(c_k + c_{k+1}) ≥ 1`, minimising `Σ 2Δs·d_k` (variables scaled so
 //! that `b` lies in [0, 1]).
-//!
-//! # Jerk
 //!
 //! The table's `s̈` changes linearly in time between the middles of neighbouring intervals
 //! ([`table`]); at grid point `m` it changes by `a_m − a_{m−1}` (`a_{−1} = a_N = 0`) over at
@@ -33,28 +39,20 @@
 //! is what the joints' jerk budget leaves for `q'·s⃛` after `|q'''|·ṡ³ + 3·|q''|·ṡ·|s̈|`. As
 //! `ṡ_hi` and `|s̈|` are not known before the solve, the first pass solves without the jerk
 //! rows, and each further pass takes them from the pass before; a pass whose own solution
-//! keeps the jerk budget at every grid point is taken (at most [`MAX_PASSES`]).
+//! keeps the jerk budget at every grid point is taken (at most [`MAX_PASSES`]). The rows are
+//! conservative (a slower profile than a true third-order TOPP) and `s̈` is the blended one,
+//! not the exact derivative of the table's `ṡ`.
 //!
-//! It guarantees the joint jerk of the commanded `q̈ = q''·ṡ² + q'·s̈` at the grid points'
-//! speeds and accelerations (as sampled by the executor, within the sampling margin). It does
-//! not make the profile jerk-optimal (the rows are conservative: a slower profile than a true
-//! third-order TOPP), it does not bound the jerk of override changes, and `s̈` is the blended
-//! one, not the exact derivative of the table's `ṡ` (they differ by at most the change of
-//! `s̈` between neighbouring intervals).
-//!
-//! # Solver
-//!
-//! One clarabel solver is built at start-up on a fixed sparsity (presolve off, zeros kept) and
-//! updated in place (`update_A`, `update_b`) for every path. Measured with a counting
-//! allocator (test `an_updated_solve_allocates_once`): an updated solve of clarabel 0.11.1
-//! allocates once (one block inside `solve`), and this module's own data none; a path with
-//! the jerk bound takes up to [`MAX_PASSES`] solves. Planning a line is not a cyclic
-//! steady-state path, but it runs in the planner's tick: see the solve times of
-//! `rc bench motion`.
+//! One clarabel solver is built on a fixed sparsity (presolve off, zeros kept) and updated
+//! in place (`update_A`, `update_b`) for every path. Measured with a counting allocator
+//! (test `an_updated_solve_allocates_once`): an updated solve of clarabel 0.11.1 allocates
+//! once (one block inside `solve`), and this module's own data none.
 
+pub mod reachability;
 pub mod table;
 
-use core::cell::RefCell;
+use core::cell::{Cell, RefCell};
+use std::time::Instant;
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -76,6 +74,9 @@ pub const MAX_PASSES: usize = 4;
 const MAX_ITERATIONS: u32 = 200;
 /// Relative slack on the jerk budget for the solver's tolerances.
 const JERK_TOLERANCE: f64 = 1e-3;
+/// Share of the rest of the path a stop may take: the rest pays for `ṡ²` being linear
+/// between the grid points and for a stop that starts while speeding up.
+pub const STOP_SHARE: f64 = 0.9;
 /// Smallest `|q'|` or `|p'|` counted as moving.
 const MOVING: f64 = 1e-12;
 /// Share of the jerk budget at rest a point keeps when the estimates leave none.
@@ -132,6 +133,11 @@ pub struct ToppLimits {
     pub braking: f64,
     /// Largest `ṡ` anywhere, 1/s.
     pub speed_cap: f64,
+    /// The path deceleration (1/s²) and jerk (1/s³) a stop on the path brakes with: the
+    /// speed at every point stays below what such a stop brakes within [`STOP_SHARE`] of the
+    /// rest of the path, so a stop never reaches the end (infinite: no such bound).
+    pub stop_braking: f64,
+    pub stop_jerk: f64,
 }
 
 /// Limits of 1 in every unit.
@@ -145,12 +151,14 @@ const UNIT_LIMITS: ToppLimits = ToppLimits {
     speed_up: 1.0,
     braking: 1.0,
     speed_cap: 1.0,
+    stop_braking: f64::INFINITY,
+    stop_jerk: f64::INFINITY,
 };
 
-/// Whether the path jerk rows are part of the problem.
+/// Whether the path jerk is bounded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum JerkBound {
-    /// Bound by the joints' jerk budget (see the module documentation).
+    /// Bound by the joints' and the TCP's jerk budget (see the module documentation).
     Joints,
     /// Velocity and acceleration only (for comparisons with second-order TOPP).
     Off,
@@ -159,89 +167,132 @@ pub enum JerkBound {
 /// Why a path could not be timed.
 #[derive(Debug, thiserror::Error)]
 pub enum ToppError {
-    /// No solver: it could not be set up (logged once by [`PathTimer::new`]), or the timer
-    /// is one without ([`PathTimer::unavailable`]). Carries nothing, so that a fallback in
-    /// the tick allocates nothing.
+    /// The conic solver could not be set up (logged once by [`PathTimer::conic`]). Carries
+    /// nothing, so that a fallback in the tick allocates nothing.
     #[error("no TOPP solver")]
     Unavailable,
     #[error("the solver is in use")]
     Busy,
     #[error("the path does not move")]
     NoMotion,
+    #[error("no path speed is admissible at grid point {0}")]
+    Infeasible(usize),
     #[error("the solver data could not be updated: {0}")]
     Update(#[from] clarabel::solver::DataUpdateError),
     #[error("the solver ended with {0:?}")]
     NotSolved(SolverStatus),
     #[error(transparent)]
     Table(#[from] TableError),
-    #[error("the jerk rows did not settle in {MAX_PASSES} passes")]
-    JerkUnsettled,
+    #[error("the jerk bound did not settle in {0} passes")]
+    JerkUnsettled(usize),
+    #[error("no table is faster than {0} s")]
+    NotFaster(f64),
 }
 
-/// What the solver spent on the last path.
+/// What the timer spent on the last path.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SolveReport {
-    /// Solves (passes) made.
+    /// Passes (solves of the conic problem, forward passes of the reachability analysis).
     pub passes: usize,
-    /// Their time as clarabel measured it, s.
+    /// Their time, s (the conic one as clarabel measured it).
     pub solve_s: f64,
 }
 
-/// The planner's path timer: one solver, built at start-up, updated for every path.
+/// How a [`PathTimer`] solves.
+enum Method {
+    Reachability,
+    /// One clarabel solver, built when the timer is made, updated for every path.
+    Conic(Box<Result<RefCell<Solver>, String>>),
+}
+
+/// A path timer: reachability analysis (the planner's) or the conic problem (the
+/// cross-check); what it spent on the last path is kept for the benchmark.
 pub struct PathTimer {
-    solver: Result<RefCell<Solver>, String>,
+    method: Method,
     jerk: JerkBound,
+    report: Cell<SolveReport>,
 }
 
 impl core::fmt::Debug for PathTimer {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let method = match &self.method {
+            Method::Reachability => "reachability",
+            Method::Conic(solver) if solver.is_ok() => "conic",
+            Method::Conic(_) => "conic (no solver)",
+        };
         f.debug_struct("PathTimer")
-            .field("ready", &self.solver.is_ok())
+            .field("method", &method)
             .field("jerk", &self.jerk)
             .finish()
     }
 }
 
 impl PathTimer {
-    /// Builds the solver. If that fails, every [`time`](Self::time) fails too (and the
-    /// caller falls back to its constant bounds); the cause is logged here once.
-    pub fn new(jerk: JerkBound) -> Self {
+    /// Reachability analysis ([`reachability`]).
+    pub fn reachability(jerk: JerkBound) -> Self {
+        Self {
+            method: Method::Reachability,
+            jerk,
+            report: Cell::default(),
+        }
+    }
+
+    /// The conic problem on clarabel. If its solver cannot be built, every
+    /// [`time`](Self::time) fails; the cause is logged here once.
+    pub fn conic(jerk: JerkBound) -> Self {
         let solver = Solver::new().map(RefCell::new);
         if let Err(e) = &solver {
-            tracing::error!("TOPP solver not available, Cartesian paths use constant bounds: {e}");
+            tracing::error!("TOPP solver not available: {e}");
         }
-        Self { solver, jerk }
-    }
-
-    /// A timer without a solver: every path falls back to the constant bounds. The executor
-    /// times its paths with it for now: an updated solve of a 256-interval path with the jerk
-    /// rows takes about 0.75 s on the development VM (`rc bench motion`), far longer than a
-    /// planner tick, and its jerk rows are conservative enough that the table was slower
-    /// than the constant bounds on every benchmark line. Time-optimal timing needs the
-    /// planning out of the tick first.
-    pub fn unavailable() -> Self {
         Self {
-            solver: Err("not built".into()),
-            jerk: JerkBound::Joints,
+            method: Method::Conic(Box::new(solver)),
+            jerk,
+            report: Cell::default(),
         }
     }
 
-    /// The time-optimal table profile of `samples` within `limits`.
+    /// Whether this timer bounds the path jerk.
+    pub fn jerk(&self) -> JerkBound {
+        self.jerk
+    }
+
+    /// The time-optimal table profile of `samples` within `limits`. The caller has use only
+    /// for a table shorter than `longest` (s): reachability analysis may skip its jerk-limited
+    /// passes when none can be ([`ToppError::NotFaster`]); the conic problem ignores it.
     pub fn time(
         &self,
         samples: &PathSamples,
         limits: &ToppLimits,
+        longest: f64,
     ) -> Result<TableProfile, ToppError> {
-        let cell = self.solver.as_ref().map_err(|_| ToppError::Unavailable)?;
-        let mut solver = cell.try_borrow_mut().map_err(|_| ToppError::Busy)?;
-        solver.report = SolveReport::default();
-        solver.time(samples, limits, self.jerk)
+        self.report.set(SolveReport::default());
+        match &self.method {
+            Method::Reachability => {
+                let started = Instant::now();
+                let timed = reachability::time(samples, limits, self.jerk, longest);
+                self.report.set(SolveReport {
+                    passes: timed.as_ref().map_or(1, |(_, passes)| *passes),
+                    solve_s: started.elapsed().as_secs_f64(),
+                });
+                timed.map(|(table, _)| table)
+            }
+            Method::Conic(solver) => {
+                let cell = solver
+                    .as_ref()
+                    .as_ref()
+                    .map_err(|_| ToppError::Unavailable)?;
+                let mut solver = cell.try_borrow_mut().map_err(|_| ToppError::Busy)?;
+                solver.report = SolveReport::default();
+                let table = solver.time(samples, limits, self.jerk);
+                self.report.set(solver.report);
+                table
+            }
+        }
     }
 
-    /// What the solver spent on the last path; `None` without a solver or while in use.
-    pub fn last_report(&self) -> Option<SolveReport> {
-        let cell = self.solver.as_ref().ok()?;
-        cell.try_borrow().ok().map(|s| s.report)
+    /// What the timer spent on the last path (also on one that failed).
+    pub fn last_report(&self) -> SolveReport {
+        self.report.get()
     }
 }
 
@@ -443,7 +494,7 @@ impl Solver {
         }
         jerk_rows(samples, limits, &profile, &mut speed, &mut self.rows)
             .then_some(profile)
-            .ok_or(ToppError::JerkUnsettled)
+            .ok_or(ToppError::JerkUnsettled(MAX_PASSES))
     }
 
     /// One solve with the current rows.
@@ -483,35 +534,34 @@ impl Solver {
     }
 }
 
-/// The largest `|v|` of row `k` and its neighbours, for the bounds between grid points.
-fn envelope(values: &[f64; POINTS], k: usize) -> f64 {
-    values[k.saturating_sub(1)..=(k + 1).min(INTERVALS)]
-        .iter()
-        .fold(0.0, |m, v| m.max(v.abs()))
-}
-
-/// Fills the speed bounds (with the jerk bound also `|q'''|·ṡ³ ≤ THIRD_SHARE·j`), the scale and the
-/// tangential reach of `rows`.
-fn speed_bounds(
+/// The largest `ṡ²` at every grid point: the joint and TCP velocities with the largest
+/// `|q'|`, `|p'|` of the point and its neighbours (`ṡ²` is linear between the points, so the
+/// bound holds on the whole interval), the speed cap and, with the jerk bound, also
+/// `|q'''|·ṡ³ ≤ THIRD_SHARE·j`.
+fn speed_limits(
     samples: &PathSamples,
     limits: &ToppLimits,
     jerk: JerkBound,
-    rows: &mut Rows,
-) -> Result<(), ToppError> {
+) -> Result<[f64; POINTS], ToppError> {
     let mut bound = [0.0; POINTS];
     for (k, b) in bound.iter_mut().enumerate() {
-        let mut v = limits.speed_cap;
-        let tcp = envelope(&samples.tcp_speed, k);
+        let around = k.saturating_sub(1)..=(k + 1).min(INTERVALS);
+        let largest =
+            |f: &dyn Fn(usize) -> f64| around.clone().fold(0.0f64, |m, e| m.max(f(e).abs()));
+        let rest = STOP_SHARE * (INTERVALS - k) as f64 / INTERVALS as f64;
+        let mut v = limits
+            .speed_cap
+            .min(stop_speed(rest, limits.stop_braking, limits.stop_jerk));
+        let tcp = largest(&|e| samples.tcp_speed[e]);
         if tcp > MOVING {
             v = v.min(GRID_MARGIN * limits.tcp_velocity / tcp);
         }
         for i in 0..AXES {
-            let column = samples.slope.map(|q| q[i]);
-            let slope = envelope(&column, k);
+            let slope = largest(&|e| samples.slope[e][i]);
             if slope > MOVING {
                 v = v.min(GRID_MARGIN * limits.velocity[i] / slope);
             }
-            let third = envelope(&samples.third.map(|q| q[i]), k);
+            let third = largest(&|e| samples.third[e][i]);
             if jerk == JerkBound::Joints && third > MOVING {
                 v = v.min((THIRD_SHARE * limits.jerk[i] / third).cbrt());
             }
@@ -522,18 +572,59 @@ fn speed_bounds(
     if !(scale.is_finite() && scale > 0.0) {
         return Err(ToppError::NoMotion);
     }
+    Ok(bound)
+}
+
+/// The largest path speed from which a stop with deceleration `a` and jerk `j` (starting at
+/// `s̈ = 0`) ends within `distance`. Such a stop's speed falls point-symmetrically about its
+/// middle, so it covers `v·T/2` in its time `T`: `T = v/a + a/j` when it reaches `a`
+/// (`v ≥ a²/j`), else `T = 2·√(v/j)`.
+pub fn stop_speed(distance: f64, a: f64, j: f64) -> f64 {
+    if !(a.is_finite() && j.is_finite()) {
+        return f64::INFINITY;
+    }
+    // v·√(v/j) = d below the speed that reaches a.
+    let short = (distance * distance * j).cbrt();
+    if short * j < a * a {
+        return short;
+    }
+    // v²/(2a) + v·a/(2j) = d.
+    let b = a * a / j;
+    0.5 * (-b + (b * b + 8.0 * a * distance).sqrt())
+}
+
+/// Fills the speed bounds ([`speed_limits`]), the scale and the tangential reach of `rows`.
+fn speed_bounds(
+    samples: &PathSamples,
+    limits: &ToppLimits,
+    jerk: JerkBound,
+    rows: &mut Rows,
+) -> Result<(), ToppError> {
+    let bound = speed_limits(samples, limits, jerk)?;
+    let scale = bound.iter().copied().fold(0.0, f64::max);
     rows.scale = scale;
     rows.speed = bound.map(|b| b / scale);
     for k in 0..INTERVALS {
-        let reach = tangential_reach(samples, limits, k, bound[k]).min(tangential_reach(
-            samples,
-            limits,
-            k + 1,
-            bound[k + 1],
-        ));
+        let reach = interval_reach(samples, limits, &bound, k);
         rows.reach[k] = if reach.is_finite() { reach } else { scale };
     }
     Ok(())
+}
+
+/// The largest `|s̈|` the acceleration rows allow in interval `k` at the speed bounds
+/// `bound` (`ṡ²`) of its ends.
+fn interval_reach(
+    samples: &PathSamples,
+    limits: &ToppLimits,
+    bound: &[f64; POINTS],
+    k: usize,
+) -> f64 {
+    tangential_reach(samples, limits, k, bound[k]).min(tangential_reach(
+        samples,
+        limits,
+        k + 1,
+        bound[k + 1],
+    ))
 }
 
 /// The largest `|s̈|` the acceleration rows allow at point `e` at `ṡ² = b`.
@@ -738,20 +829,20 @@ mod tests {
     #[global_allocator]
     static ALLOCATOR: Counting = Counting;
 
-    fn allocations() -> usize {
+    pub(super) fn allocations() -> usize {
         ALLOCATIONS.with(Cell::get)
     }
 
-    const SLOPE: [f64; AXES] = [1.0, -0.5, 0.25, 0.0, 0.8, -0.2];
+    pub(super) const SLOPE: [f64; AXES] = [1.0, -0.5, 0.25, 0.0, 0.8, -0.2];
 
     /// A straight joint-space path `q(s) = q0 + s·Δ` with `Δ = SLOPE`.
-    fn straight() -> Box<PathSamples> {
+    pub(super) fn straight() -> Box<PathSamples> {
         let mut samples = Box::new(PathSamples::zeros());
         samples.slope = [SLOPE; POINTS];
         samples
     }
 
-    fn limits() -> ToppLimits {
+    pub(super) fn limits() -> ToppLimits {
         ToppLimits {
             velocity: [2.0; AXES],
             acceleration: [8.0; AXES],
@@ -762,7 +853,7 @@ mod tests {
     }
 
     /// Shortest rest-to-rest time over `s` in [0, 1] with `ṡ ≤ v`, `|s̈| ≤ a`.
-    fn trapezoid(v: f64, a: f64) -> f64 {
+    pub(super) fn trapezoid(v: f64, a: f64) -> f64 {
         if v * v / a >= 1.0 {
             2.0 / a.sqrt()
         } else {
@@ -772,12 +863,12 @@ mod tests {
 
     #[test]
     fn a_straight_joint_path_takes_the_trapezoid_time() {
-        let timer = PathTimer::new(JerkBound::Off);
+        let timer = PathTimer::conic(JerkBound::Off);
         for (velocity, acceleration) in [(2.0, 8.0), (0.5, 8.0), (20.0, 2.0)] {
             let mut l = limits();
             l.velocity = [velocity; AXES];
             l.acceleration = [acceleration; AXES];
-            let table = timer.time(&straight(), &l).unwrap();
+            let table = timer.time(&straight(), &l, f64::INFINITY).unwrap();
             // Joint 0 (|q'| = 1) decides both limits.
             let expected = trapezoid(GRID_MARGIN * velocity, GRID_MARGIN * acceleration);
             let ratio = table.duration() / expected;
@@ -791,14 +882,14 @@ mod tests {
 
     #[test]
     fn a_curved_middle_slows_the_path_there_only() {
-        let timer = PathTimer::new(JerkBound::Off);
+        let timer = PathTimer::conic(JerkBound::Off);
         let l = limits();
-        let plain = timer.time(&straight(), &l).unwrap();
+        let plain = timer.time(&straight(), &l, f64::INFINITY).unwrap();
         let mut bent = straight();
         for k in 120..=136 {
             bent.curvature[k][1] = 200.0;
         }
-        let slowed = timer.time(&bent, &l).unwrap();
+        let slowed = timer.time(&bent, &l, f64::INFINITY).unwrap();
         assert!(slowed.duration() > plain.duration() * 1.01);
         // Where the curvature is, at most √(a/|q''|) (plus what the slope term may add).
         assert!(slowed.speeds()[128] <= (8.0f64 / 200.0).sqrt() * 1.01);
@@ -810,7 +901,7 @@ mod tests {
     }
 
     /// Samples `table` densely; returns the largest `|q'_0·Δs̈/Δt|`.
-    fn largest_tangential_jerk(table: &TableProfile, slope: f64) -> f64 {
+    pub(super) fn largest_tangential_jerk(table: &TableProfile, slope: f64) -> f64 {
         let dt = 1e-4;
         let mut previous = table.eval(0.0);
         let mut jerk: f64 = 0.0;
@@ -827,11 +918,11 @@ mod tests {
     #[test]
     fn the_jerk_rows_keep_the_joint_jerk() {
         let l = limits();
-        let free = PathTimer::new(JerkBound::Off)
-            .time(&straight(), &l)
+        let free = PathTimer::conic(JerkBound::Off)
+            .time(&straight(), &l, f64::INFINITY)
             .unwrap();
-        let bounded = PathTimer::new(JerkBound::Joints)
-            .time(&straight(), &l)
+        let bounded = PathTimer::conic(JerkBound::Joints)
+            .time(&straight(), &l, f64::INFINITY)
             .unwrap();
         // A straight path: q⃛ = q'·s⃛, joint 0 decides.
         let jerk = largest_tangential_jerk(&bounded, 1.0);
@@ -844,30 +935,24 @@ mod tests {
 
     #[test]
     fn a_path_without_motion_is_refused() {
-        let timer = PathTimer::new(JerkBound::Joints);
+        let timer = PathTimer::conic(JerkBound::Joints);
         let samples = PathSamples::zeros();
         let mut l = limits();
         l.speed_cap = f64::INFINITY;
-        assert!(matches!(timer.time(&samples, &l), Err(ToppError::NoMotion)));
-    }
-
-    #[test]
-    fn a_timer_without_solver_refuses_every_path() {
-        let timer = PathTimer::unavailable();
         assert!(matches!(
-            timer.time(&straight(), &limits()),
-            Err(ToppError::Unavailable)
+            timer.time(&samples, &l, f64::INFINITY),
+            Err(ToppError::NoMotion)
         ));
     }
 
     #[test]
     fn an_updated_solve_allocates_once() {
-        let timer = PathTimer::new(JerkBound::Off);
+        let timer = PathTimer::conic(JerkBound::Off);
         let samples = straight();
         let l = limits();
-        timer.time(&samples, &l).unwrap();
+        timer.time(&samples, &l, f64::INFINITY).unwrap();
         let before = allocations();
-        timer.time(&samples, &l).unwrap();
+        timer.time(&samples, &l, f64::INFINITY).unwrap();
         let per_solve = allocations() - before;
         // clarabel 0.11.1 allocates one block inside `solve` (see the module documentation).
         assert!(per_solve <= 1, "{per_solve} allocations per solve");

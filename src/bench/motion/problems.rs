@@ -90,10 +90,12 @@ pub struct Robot {
     pub geometry: ArmGeometry,
     /// Share of the acceleration the planner holds back for override changes.
     pub reserve: f64,
-    /// The planner's path timer, with the jerk bound.
+    /// The planner's path timer: reachability analysis with the jerk bound.
     pub timer: PathTimer,
-    /// A path timer on velocity and acceleration only: the constraints toppra has.
+    /// Reachability analysis on velocity and acceleration only: the constraints toppra has.
     pub second_order: PathTimer,
+    /// The conic problem on the same constraints: the cross-check of `second_order`.
+    pub conic: PathTimer,
 }
 
 impl Robot {
@@ -106,8 +108,9 @@ impl Robot {
             kinematics: Kinematics::new(&config.robot.kinematics),
             geometry: ArmGeometry::new(&config.robot.kinematics)?,
             reserve: config.main.planner.override_reserve,
-            timer: PathTimer::new(JerkBound::Joints),
-            second_order: PathTimer::new(JerkBound::Off),
+            timer: PathTimer::reachability(JerkBound::Joints),
+            second_order: PathTimer::reachability(JerkBound::Off),
+            conic: PathTimer::conic(JerkBound::Off),
         })
     }
 
@@ -181,6 +184,8 @@ pub struct LinearCase {
     /// The joints of our path at `s = k / SAMPLES`, `k = 0..=SAMPLES`.
     pub path: Vec<[f64; AXES]>,
     pub ours: Ours,
+    /// The conic problem's duration (s) on the constraints of `ours.second_order_s`.
+    pub conic_s: f64,
 }
 
 impl LinearCase {
@@ -331,6 +336,13 @@ fn draw_linear_case(
     let LinearPlan::Move(second_order) = second_order else {
         return Err(ProblemError::Replan("stationary without jerk bound".into()));
     };
+    let conic = LinearMove::plan(start, &command, &robot.arm_timed_by(&robot.conic), 0.0)
+        .map_err(replan)?;
+    let LinearPlan::Move(conic) = conic else {
+        return Err(ProblemError::Replan(
+            "stationary for the conic timer".into(),
+        ));
+    };
     let mut path = Vec::with_capacity(SAMPLES + 1);
     let mut previous = start;
     for k in 0..=SAMPLES {
@@ -349,6 +361,7 @@ fn draw_linear_case(
             no_reserve_s: no_reserve.timing().profile.duration(),
             second_order_s: second_order.timing().profile.duration(),
         },
+        conic_s: conic.timing().profile.duration(),
     }))
 }
 

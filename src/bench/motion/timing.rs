@@ -5,6 +5,7 @@
 use std::hint::black_box;
 use std::time::Instant;
 
+use planner::linear_move::LinearMove;
 use shared_types::ipc::{AXES, MotionCommand};
 
 use super::problems::{JointCase, LinearCase, Problems, Rng, Robot};
@@ -35,8 +36,11 @@ pub struct Timings {
     pub fk: CallTimes,
     pub plan_joint: CallTimes,
     pub plan_linear: CallTimes,
-    /// The TOPP solves of every linear plan (all passes), as clarabel measured them.
+    /// The reachability solve of every linear plan (all its passes).
     pub topp: CallTimes,
+    /// The conic problem's solve of every linear move (velocity and acceleration only), as
+    /// clarabel measured it.
+    pub conic: CallTimes,
 }
 
 /// Times `call` on every input: each call alone, then all in one loop.
@@ -94,6 +98,7 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
         LinearCase::plan(robot, *start, command, robot.reserve)
     });
     let topp = topp_solves(robot, &linear_commands);
+    let conic = conic_solves(robot, &problems.linear);
     Timings {
         ik_all,
         ik_one,
@@ -101,26 +106,37 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
         plan_joint,
         plan_linear,
         topp,
+        conic,
     }
 }
 
-/// The solver time of the planner's path timer for every linear plan of `commands`, from
-/// clarabel's own clock (all passes of one plan together); the rate is plans per second of
-/// solver time.
+/// The solve time of the planner's path timer for every linear plan of `commands`; the
+/// rate is solves per second of solve time.
 fn topp_solves(robot: &Robot, commands: &[([f64; AXES], MotionCommand)]) -> CallTimes {
-    let mut samples = Vec::with_capacity(commands.len());
-    let mut total_s = 0.0;
-    for (start, command) in commands {
-        if LinearCase::plan(robot, *start, command, robot.reserve).is_err() {
-            continue;
-        }
-        if let Some(report) = robot.timer.last_report() {
-            samples.push((report.solve_s * 1e9).round() as u64);
-            total_s += report.solve_s;
-        }
-    }
+    solver_times(commands.iter().filter_map(|(start, command)| {
+        LinearCase::plan(robot, *start, command, robot.reserve)
+            .ok()
+            .map(|_| robot.timer.last_report().solve_s)
+    }))
+}
+
+/// The solve time of the conic problem for every linear move of `cases`, as clarabel
+/// measured it.
+fn conic_solves(robot: &Robot, cases: &[LinearCase]) -> CallTimes {
+    let arm = robot.arm_timed_by(&robot.conic);
+    solver_times(cases.iter().filter_map(|c| {
+        LinearMove::plan(c.start, &LinearCase::command(c.pose), &arm, 0.0)
+            .ok()
+            .map(|_| robot.conic.last_report().solve_s)
+    }))
+}
+
+/// The distribution of solve times (s); the rate is solves per second of solve time.
+fn solver_times(times: impl Iterator<Item = f64>) -> CallTimes {
+    let times: Vec<f64> = times.collect();
+    let total_s: f64 = times.iter().sum();
     CallTimes {
-        per_second: samples.len() as f64 / total_s.max(f64::MIN_POSITIVE),
-        each: Distribution::new(samples),
+        per_second: times.len() as f64 / total_s.max(f64::MIN_POSITIVE),
+        each: Distribution::new(times.iter().map(|t| (t * 1e9).round() as u64).collect()),
     }
 }

@@ -3,6 +3,13 @@
 //! as MoveLinearAbsolute's target does; for the relative move both are distances from where
 //! the move starts, in the axes ReferenceType names, made absolute by the planner.
 //!
+//! In RADIUS mode the AuxPoint's X, Y, Z are a vector, "the spearhead point of the
+//! perpendicular" of the circle's plane, its length the radius (the PLCopen MC_MoveCircular
+//! definition the CircMode text repeats): it reaches the planner as the radius and as the
+//! EndPoint displaced by that vector, so that it turns with the frame or, for the relative
+//! move, with the ReferenceType's axes exactly as the EndPoint does. PathChoice then selects
+//! the shorter (0) or the longer (1) of the two arcs, as PLCopen's PathChoice does.
+//!
 //! Spec-table defects handled here: table 6-357 (MoveCircularRelative) lists ConfigMode[1]
 //! and ReferenceType as bits of byte 111 and TurnMode at 113; ConfigMode[1] is a full byte
 //! (as in MoveCircularAbsolute), so ReferenceType is taken from the byte before TurnMode,
@@ -27,7 +34,8 @@ const BORDER: i8 = 0;
 const CENTER: i8 = 1;
 /// CircMode CENTER_WITH_ANGLE: the AuxPoint is the centre, Angle gives the end.
 const CENTER_WITH_ANGLE: i8 = 2;
-/// CircMode RADIUS: the AuxPoint's vector has the radius as its length.
+/// CircMode RADIUS: the AuxPoint's vector is the normal of the plane, its length the radius;
+/// CircPlane is not used.
 const RADIUS: i8 = 3;
 
 /// The arc parameters of a request, checked, in the planner's units.
@@ -36,11 +44,12 @@ pub struct CircleParameters {
     pub mode: u8,
     pub plane: u8,
     pub angle_rad: f64,
+    /// How far the end of a CENTER arc may lie off the circle (m); 0 = the planner's default.
+    pub tolerance_m: f64,
 }
 
-/// Checks CircMode, CircPlane (0..2 where the mode uses it), Tolerance (CENTER only, mm ≥ 0)
-/// and Angle (CENTER_WITH_ANGLE only, degrees). The planner keeps its own tolerance for
-/// CENTER arcs; the PLC's is checked, not used.
+/// Checks CircMode, CircPlane (0..2 where the mode uses it: the center modes), Tolerance
+/// (CENTER only, mm ≥ 0) and Angle (CENTER_WITH_ANGLE only, degrees).
 pub fn circle_parameters(
     mode: i8,
     plane: i8,
@@ -51,7 +60,7 @@ pub fn circle_parameters(
         return Err(INVALID_CIRC_MODE);
     }
     let plane = match plane {
-        _ if mode == BORDER => 0,
+        _ if mode == BORDER || mode == RADIUS => 0,
         0..=2 => plane,
         _ => return Err(INVALID_CIRC_PLANE),
     };
@@ -66,6 +75,7 @@ pub fn circle_parameters(
         mode: mode as u8,
         plane: plane as u8,
         angle_rad: f64::from(angle_deg).to_radians(),
+        tolerance_m: f64::from(tolerance) / 1000.0,
     })
 }
 
@@ -160,7 +170,7 @@ const MOVE_CIRCULAR_RELATIVE: CircularLayout = CircularLayout {
 /// MoveCircular: the EndPoint with its configuration and turns, the AuxPoint (its own
 /// configuration and turns are not used: the arc passes it, the arm does not stop there),
 /// the arc parameters, PathChoice and OriMode. In RADIUS mode the AuxPoint's vector (mm) is
-/// the radius.
+/// the normal of the plane, its length the radius (see the module documentation).
 pub(super) fn decode(msg: &[u8], h: CommandHeader, data: &UserData) -> Result<MotionCommand, u16> {
     let layout = if h.command_type == mcr::TYPE {
         &MOVE_CIRCULAR_RELATIVE
@@ -170,7 +180,7 @@ pub(super) fn decode(msg: &[u8], h: CommandHeader, data: &UserData) -> Result<Mo
     let (mut c, end) =
         motion::decode_cartesian(msg, h, data, &layout.end, MotionCommandKind::MoveCircular)?;
     let r = PayloadReader::new(msg);
-    let aux = wire_pose(&r, layout.aux)?;
+    let mut aux = wire_pose(&r, layout.aux)?;
     let circle = circle_parameters(
         r.i8(layout.circ_mode),
         r.i8(layout.circ_plane),
@@ -180,8 +190,18 @@ pub(super) fn decode(msg: &[u8], h: CommandHeader, data: &UserData) -> Result<Mo
     c.circle_mode = circle.mode;
     c.circle_plane = circle.plane;
     c.circle_angle_rad = circle.angle_rad;
+    c.circle_tolerance_m = circle.tolerance_m;
     if circle.mode == RADIUS as u8 {
         c.circle_radius_m = (aux[0] * aux[0] + aux[1] * aux[1] + aux[2] * aux[2]).sqrt() / 1000.0;
+        // The vector from the EndPoint: turned into the base frame as the EndPoint is.
+        aux = [
+            end[0] + aux[0],
+            end[1] + aux[1],
+            end[2] + aux[2],
+            end[3],
+            end[4],
+            end[5],
+        ];
     }
     c.path_choice = u8::from(r.bit(layout.path_choice));
     c.ori_mode = motion::ori_mode(msg, layout.ori_mode)?;
@@ -217,10 +237,15 @@ mod tests {
             Ok(CircleParameters {
                 mode: 0,
                 plane: 0,
-                angle_rad: 0.0
+                angle_rad: 0.0,
+                tolerance_m: 0.0,
             })
         );
-        assert_eq!(circle_parameters(1, 2, 0.5, 0.0).unwrap().plane, 2);
+        let center = circle_parameters(1, 2, 0.5, 0.0).unwrap();
+        assert_eq!(center.plane, 2);
+        assert!((center.tolerance_m - 5e-4).abs() < 1e-12);
+        // RADIUS takes its plane from the AuxPoint's vector: CircPlane is not checked.
+        assert_eq!(circle_parameters(3, 9, 0.0, 0.0).unwrap().plane, 0);
         let angle = circle_parameters(2, 1, 0.0, -90.0).unwrap();
         assert!((angle.angle_rad + core::f64::consts::FRAC_PI_2).abs() < 1e-12);
         assert_eq!(circle_parameters(3, 0, 0.0, 0.0).unwrap().mode, 3);
@@ -276,18 +301,40 @@ mod tests {
     }
 
     #[test]
-    fn a_radius_arc_takes_the_length_of_the_aux_vector() {
-        let msg = request(&MOVE_CIRCULAR_ABSOLUTE, |w| {
-            w.set_i8(mca::request::CIRC_MODE, 3);
-            for (f, v) in mca::request::AUX_POINT_X_RZ
-                .into_iter()
-                .zip([0.0, 30.0, 40.0])
-            {
-                w.set_f32(f, v);
-            }
-        });
+    fn a_radius_arc_takes_the_aux_vector_as_the_normal_and_its_length_as_the_radius() {
+        let radius = |layout: &CircularLayout, reference_type: u8| {
+            request(layout, |w| {
+                w.set_i8(layout.circ_mode, 3);
+                w.set_bit(layout.path_choice, true);
+                for (f, v) in layout.aux.into_iter().zip([0.0, 30.0, 40.0]) {
+                    w.set_f32(f, v);
+                }
+                if let Some(field) = layout.reference_type {
+                    w.set_u8(field, reference_type);
+                }
+            })
+        };
+        let msg = radius(&MOVE_CIRCULAR_ABSOLUTE, 0);
         let c = decode(&msg, header(mca::TYPE), &factory_data()).unwrap();
         assert!((c.circle_radius_m - 0.05).abs() < 1e-9);
+        assert_eq!((c.circle_mode, c.path_choice), (3, 1));
+        // The EndPoint (400, 100, 300) displaced by the vector, with the EndPoint's turn.
+        for (a, b) in c.aux_pose.iter().zip([0.4, 0.13, 0.34]) {
+            assert!((a - b).abs() < 1e-9, "{:?}", c.aux_pose);
+        }
+        assert_eq!(c.aux_pose[3..], c.pose[3..]);
+        // Relative, in the tool's axes: the same offset from the EndPoint's distance.
+        let msg = radius(&MOVE_CIRCULAR_RELATIVE, 0);
+        let c = decode(&msg, header(mcr::TYPE), &factory_data()).unwrap();
+        assert_eq!(c.target_reference, TargetReference::RelativeInTool as u8);
+        for i in 0..3 {
+            let offset = c.aux_pose[i] - c.pose[i];
+            assert!(
+                (offset - [0.0, 0.03, 0.04][i]).abs() < 1e-9,
+                "{:?}",
+                c.aux_pose
+            );
+        }
     }
 
     #[test]

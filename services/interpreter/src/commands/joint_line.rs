@@ -31,8 +31,10 @@ const LAYOUT: MoveLayout = MoveLayout {
 };
 
 /// Checks a MoveLinearAbsoluteJ request and turns it into a MoveLinear to the TCP pose of
-/// its joints (within the SW limits). Only an orientation interpolated to the target's
-/// (OriMode 0 or 1) ends at the joints; the other modes are refused (0x8E08).
+/// its joints (within the SW limits). Only an orientation turned to the target's (OriMode
+/// 0, 1 and 4 PATH, which on a line is the same turn) or the wrist joints interpolated to
+/// the target's (2) ends at the joints; FIX keeps the start orientation and is refused
+/// (0x8E08).
 pub(super) fn decode(
     msg: &[u8],
     h: CommandHeader,
@@ -43,7 +45,7 @@ pub(super) fn decode(
     let mut c = decode_move(&r, &LAYOUT, h, MotionCommandKind::MoveLinear, data)?;
     let joints = joint_target(&r, mlaj::request::JOINT_POSITION_J1_J6, data)?;
     c.ori_mode = match motion::ori_mode(msg, mlaj::request::ORI_MODE)? {
-        m @ (0 | 1) => m,
+        m @ (0..=2 | 4) => m,
         _ => return Err(code::ORI_MODE_NOT_SUPPORTED),
     };
     let target = arm
@@ -102,6 +104,16 @@ mod tests {
         assert_eq!(c.turn_numbers[2] >> 4, 1, "J6 one turn up");
         assert_eq!((c.config_modes, c.turn_mode), ([0; 3], 0));
         assert!((c.tool[2] - 0.1).abs() < 1e-9);
+        // JOINT_INTERPOLATED and PATH end at the joints too.
+        for ori_mode in [2, 4] {
+            let msg = request(joints, |w| w.set_u8(mlaj::request::ORI_MODE, ori_mode));
+            assert_eq!(
+                decode(&msg, header(mlaj::TYPE), &data, &arm)
+                    .unwrap()
+                    .ori_mode,
+                ori_mode
+            );
+        }
     }
 
     #[test]
@@ -110,7 +122,7 @@ mod tests {
         let data = factory_data();
         let arm = ArmModel::new(&cfg.robot.kinematics);
         let home = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0];
-        let cases: [(Vec<u8>, u16); 4] = [
+        let cases: [(Vec<u8>, u16); 5] = [
             (
                 request([f32::NAN, 90.0, 90.0, 90.0, -90.0, 0.0], |_| {}),
                 code::INVALID_JOINT_POSITION,
@@ -122,6 +134,10 @@ mod tests {
             (
                 request(home, |w| w.set_u8(mlaj::request::ORI_MODE, 3)),
                 code::ORI_MODE_NOT_SUPPORTED,
+            ),
+            (
+                request(home, |w| w.set_u8(mlaj::request::ORI_MODE, 5)),
+                code::INVALID_ORI_MODE,
             ),
             (
                 request(home, |w| w.set_u8(mlaj::request::BLENDING_MODE, 6)),

@@ -1238,19 +1238,19 @@ mod linear {
     fn errors_are_reported_before_the_arm_moves() {
         let mut rig = Rig::new();
         let far = rig.line_by(1, [2.0, 0.0, 0.0], [0.0; 3]);
-        let mut joint_interpolated = rig.line_by(2, SHIFT, [0.0; 3]);
-        joint_interpolated.ori_mode = 2;
+        let mut undefined_ori_mode = rig.line_by(2, SHIFT, [0.0; 3]);
+        undefined_ori_mode.ori_mode = 5;
         let mut other_config = rig.line_by(3, SHIFT, [0.0; 3]);
         // Shoulder FRONT: home is BACK.
         other_config.config_modes = [4, 1, 1];
         let mut slow_decel = rig.line_by(4, SHIFT, [0.0; 3]);
         slow_decel.deceleration_scale = 1.5;
-        rig.step(&[far, joint_interpolated, other_config, slow_decel]);
+        rig.step(&[far, undefined_ori_mode, other_config, slow_decel]);
         assert_eq!(
             rig.states_of(1),
             vec![(state::ERROR, code::TARGET_UNREACHABLE)]
         );
-        assert_eq!(rig.states_of(2), vec![(state::ERROR, 0x8E08)]);
+        assert_eq!(rig.states_of(2), vec![(state::ERROR, 0x8D22)]);
         assert_eq!(
             rig.states_of(3),
             vec![(state::ERROR, code::TARGET_UNREACHABLE)]

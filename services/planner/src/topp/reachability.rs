@@ -1,0 +1,651 @@
+//! Time-optimal path parameterisation by reachability analysis (TOPP-RA, Pham & Pham 2018)
+//! on the grid of [`PathSamples`], with a jerk-limited forward pass.
+//!
+//! # Stages
+//!
+//! Stage `k` is the interval `[s_k, s_{k+1}]` with `x = ṡ²` at `s_k` and a constant path
+//! acceleration `u = s̈`, so `x_{k+1} = x_k + 2Δs·u`. Its rows are those of the conic
+//! problem of [`topp`](super), all linear in `(u, x)`: the joint accelerations
+//! `|q'_i·u + q''_i·x_e| ≤ a_i` at both ends `e` of the interval and the TCP's
+//! `|p'|·|u| + |p''|·x_e ≤ a_tcp` (within [`GRID_MARGIN`]), the tangential shares of the
+//! acceleration and deceleration rates, and `x ≤ x̄` for the speed bounds (joint and TCP
+//! velocity, the speed cap). A stage's LP has two variables and is solved exactly: every
+//! row bounds `u` from above or from below as a function of `x` (or bounds `x` alone), and
+//! every pair of a lower and an upper bound on `u` gives, with `u` eliminated, a row on `x`
+//! (Fourier–Motzkin). The `x` of a stage with an admissible `u` therefore form an interval.
+//!
+//! # Passes
+//!
+//! The backward pass finds the controllable sets: `K_N = {0}` and `K_k` the `x` at `s_k`
+//! from which an admissible `u` leads into `K_{k+1}`. The forward pass starts at `x_0 = 0`
+//! and takes the largest admissible `u` into `K_{k+1}` at every stage: the time-optimal
+//! timing of the grid (the one the conic problem finds without its jerk rows).
+//!
+//! # Jerk
+//!
+//! The [`TableProfile`] blends `s̈` linearly in time between the middles of neighbouring
+//! intervals, so around grid point `m` the path jerk is `(u_m − u_{m−1})` over the time
+//! between those middles (`u_{−1} = u_N = 0`). With `q⃛ = q'''·ṡ³ + q''·ṡ·(2·s̈ + s̈_blend) +
+//! q'·s⃛` the joints' jerk budget leaves `J_m = min_i (j_i − |q'''_i|·ṡ³ − 3·|q''_i|·ṡ·|s̈|)/|q'_i|`
+//! for `|s⃛|` (the largest magnitudes of the points around `m`, the largest `ṡ` and `|s̈|`
+//! around it; the TCP likewise), so the change of `u` at `m` has a window. To keep the
+//! budget positive the speed is capped where `|q'''|·ṡ³` would take more than half of it
+//! and `|s̈|` is held to half of what is left for `3·|q''|·ṡ·|s̈|` at the stage's speed bound.
+//!
+//! The jerk-limited forward pass takes at every stage the largest `u` in that window whose
+//! fastest way down (`u` lowered as fast as the window allows, down to the largest braking
+//! the rows allow) stays within the controllable sets: a pass that accelerates too long
+//! could not brake in time. The end of the path needs `u` back at 0 as the path stops,
+//! which no forward look-ahead sees: the same pass on the reversed path (braking seen as
+//! speeding up, from the end), under the forward profile as its speed bound, ends at rest
+//! with a jerk-limited ramp and meets the forward profile where that one is jerk-limited;
+//! a last forward pass runs under it. What is left, where the estimates of a window were
+//! too optimistic, is found by checking every grid point of the result: before such a
+//! point the speed bound is lowered a little under the profile and the last pass repeated,
+//! at most [`MAX_REPAIRS`] times. All of it works on fixed-size arrays, without allocation.
+
+use shared_types::ipc::AXES;
+
+use super::{
+    GRID_MARGIN, INTERVALS, JerkBound, MOVING, POINTS, PathSamples, TableProfile, ToppError,
+    ToppLimits, interval_reach, speed_limits,
+};
+
+/// Times the speed bound is lowered before a jerk-limited profile is given up.
+pub const MAX_REPAIRS: usize = 8;
+/// Share of the jerk budget (after `|q'''|·ṡ³`) the term `3·|q''|·ṡ·|s̈|` may take.
+const CROSS_SHARE: f64 = 0.5;
+/// Factor on the profile's speed² where a repair lowers the speed bound.
+const REPAIR_FACTOR: f64 = 0.9;
+/// Grid points before a jerk violation whose speed bound a repair lowers.
+const REPAIR_SPAN: usize = 16;
+/// Regula falsi steps for a jerk window that depends on the `u` it bounds.
+const WINDOW_STEPS: usize = 8;
+/// Relative slack of the jerk check for rounding.
+const JERK_TOLERANCE: f64 = 1e-6;
+/// Slack of the feasibility tests, relative to the largest speed bound.
+const FEASIBILITY: f64 = 1e-9;
+/// Rows of one stage: joints at both ends with both signs, the TCP at both ends with both
+/// signs, the tangential bounds and the controllable set of the next point.
+const STAGE_ROWS: usize = 4 * AXES + 4 + 2 + 2;
+/// Grid step of `s`.
+const STEP: f64 = 1.0 / INTERVALS as f64;
+
+/// Times `samples` within `limits`: the time-optimal table (with `jerk`, the jerk-limited
+/// one) and the passes it took. A jerk-limited table is of use only if it takes less than
+/// `longest` (s): when the table without the jerk window (a lower bound of its duration)
+/// does not, the jerk-limited passes are skipped ([`ToppError::NotFaster`]).
+pub fn time(
+    samples: &PathSamples,
+    limits: &ToppLimits,
+    jerk: JerkBound,
+    longest: f64,
+) -> Result<(TableProfile, usize), ToppError> {
+    let forward = Problem::new(samples, limits, jerk)?;
+    let mut sets = Sets::new();
+    let mut x = [0.0; POINTS];
+    forward.controllable(&mut sets)?;
+    forward.greedy(&sets, &mut x);
+    let unlimited = table(&x)?;
+    if jerk == JerkBound::Off {
+        return Ok((unlimited, 1));
+    }
+    if unlimited.duration() >= longest {
+        return Err(ToppError::NotFaster(longest));
+    }
+    // Forward under the controllable sets alone: right but for the end of the path.
+    let mut u = [0.0; INTERVALS];
+    forward.jerk_greedy(&sets, &mut x, &mut u);
+    // From the end under that profile: right but for the start, and it meets the forward
+    // profile where that one is jerk-limited already.
+    let mut reversed = forward.reversed();
+    for (k, bound) in reversed.bound.iter_mut().enumerate() {
+        *bound = bound.min(x[INTERVALS - k]);
+    }
+    reversed.controllable(&mut sets)?;
+    reversed.jerk_greedy(&sets, &mut x, &mut u);
+    let mut problem = forward;
+    for (k, bound) in problem.bound.iter_mut().enumerate() {
+        *bound = bound.min(x[INTERVALS - k]);
+    }
+    for pass in 1..=MAX_REPAIRS + 1 {
+        problem.controllable(&mut sets)?;
+        problem.jerk_greedy(&sets, &mut x, &mut u);
+        let Some(m) = problem.jerk_violation(&x, &u) else {
+            return Ok((table(&x)?, pass + 3));
+        };
+        let before = m.saturating_sub(REPAIR_SPAN).max(1)..=m.min(INTERVALS - 1);
+        for (bound, x) in problem.bound[before.clone()].iter_mut().zip(&x[before]) {
+            *bound = bound.min(REPAIR_FACTOR * x);
+        }
+    }
+    Err(ToppError::JerkUnsettled(MAX_REPAIRS + 4))
+}
+
+/// The table of the speeds² `x` at the grid points.
+fn table(x: &[f64; POINTS]) -> Result<TableProfile, ToppError> {
+    Ok(TableProfile::from_speeds(&x.map(|x| x.max(0.0).sqrt()))?)
+}
+
+/// The largest magnitudes of the derivatives of `samples` at grid point `k` and its
+/// neighbours (the same either way along the path).
+fn envelope(samples: &PathSamples, k: usize) -> Envelope {
+    let s = samples;
+    let mut e = Envelope {
+        slope: [0.0; AXES],
+        curvature: [0.0; AXES],
+        third: [0.0; AXES],
+        tcp_speed: 0.0,
+        tcp_curvature: 0.0,
+    };
+    for p in k.saturating_sub(1)..=(k + 1).min(INTERVALS) {
+        for i in 0..AXES {
+            e.slope[i] = e.slope[i].max(s.slope[p][i].abs());
+            e.curvature[i] = e.curvature[i].max(s.curvature[p][i].abs());
+            e.third[i] = e.third[i].max(s.third[p][i].abs());
+        }
+        e.tcp_speed = e.tcp_speed.max(s.tcp_speed[p].abs());
+        e.tcp_curvature = e.tcp_curvature.max(s.tcp_curvature[p].abs());
+    }
+    e
+}
+
+/// One row `u·u_coefficient + x·x_coefficient ≤ rhs`, scaled to a largest coefficient of 1.
+#[derive(Debug, Clone, Copy, Default)]
+struct Row {
+    u: f64,
+    x: f64,
+    rhs: f64,
+}
+
+/// The rows of one stage.
+struct StageRows {
+    rows: [Row; STAGE_ROWS],
+    len: usize,
+}
+
+/// Receives the rows of a stage.
+trait RowSink {
+    /// The row `u·cu + x·cx ≤ rhs`. Rows without a finite bound are left out: every row's
+    /// right-hand side is a limit, so without variables `0 ≤ rhs` holds.
+    fn push(&mut self, cu: f64, cx: f64, rhs: f64);
+}
+
+impl RowSink for StageRows {
+    fn push(&mut self, cu: f64, cx: f64, rhs: f64) {
+        let size = cu.abs().max(cx.abs());
+        if !(rhs.is_finite() && size > 0.0) || self.len == STAGE_ROWS {
+            return;
+        }
+        self.rows[self.len] = Row {
+            u: cu / size,
+            x: cx / size,
+            rhs: rhs / size,
+        };
+        self.len += 1;
+    }
+}
+
+/// The admissible `u` at one `x`, gathered row by row: `(lowest, highest)`, empty
+/// (`lowest > highest`) where a row on `x` alone fails by more than `slack`.
+struct URange {
+    x: f64,
+    slack: f64,
+    lowest: f64,
+    highest: f64,
+}
+
+impl URange {
+    fn at(x: f64, slack: f64) -> Self {
+        Self {
+            x,
+            slack,
+            lowest: f64::NEG_INFINITY,
+            highest: f64::INFINITY,
+        }
+    }
+}
+
+impl RowSink for URange {
+    fn push(&mut self, cu: f64, cx: f64, rhs: f64) {
+        if !rhs.is_finite() {
+            return;
+        }
+        let room = rhs - cx * self.x;
+        if cu > 0.0 {
+            self.highest = self.highest.min(room / cu);
+        } else if cu < 0.0 {
+            self.lowest = self.lowest.max(room / cu);
+        } else if room < -self.slack {
+            (self.lowest, self.highest) = (f64::INFINITY, f64::NEG_INFINITY);
+        }
+    }
+}
+
+impl StageRows {
+    fn new() -> Self {
+        Self {
+            rows: [Row::default(); STAGE_ROWS],
+            len: 0,
+        }
+    }
+
+    fn rows(&self) -> &[Row] {
+        &self.rows[..self.len]
+    }
+
+    /// The interval of `x` in `[0, bound]` with an admissible `u` (Fourier–Motzkin);
+    /// `None` if it is empty.
+    fn x_range(&self, bound: f64, slack: f64) -> Option<(f64, f64)> {
+        let (mut lo, mut hi) = (0.0f64, bound);
+        let mut on_x = |cx: f64, rhs: f64| {
+            if cx > 0.0 {
+                hi = hi.min(rhs / cx);
+            } else if cx < 0.0 {
+                lo = lo.max(rhs / cx);
+            } else {
+                return rhs >= -slack;
+            }
+            true
+        };
+        let rows = self.rows();
+        for r in rows.iter().filter(|r| r.u == 0.0) {
+            if !on_x(r.x, r.rhs) {
+                return None;
+            }
+        }
+        for upper in rows.iter().filter(|r| r.u > 0.0) {
+            for lower in rows.iter().filter(|r| r.u < 0.0) {
+                // upper.u·(lower row) − lower.u·(upper row): u cancels.
+                let cx = upper.u * lower.x - lower.u * upper.x;
+                let rhs = upper.u * lower.rhs - lower.u * upper.rhs;
+                let cx = if cx.abs() < f64::EPSILON { 0.0 } else { cx };
+                if !on_x(cx, rhs) {
+                    return None;
+                }
+            }
+        }
+        if lo > hi + slack {
+            return None;
+        }
+        Some((lo.min(hi), hi))
+    }
+}
+
+/// The controllable sets `[lo_k, hi_k]` of `x` at the grid points.
+struct Sets {
+    lo: [f64; POINTS],
+    hi: [f64; POINTS],
+}
+
+impl Sets {
+    fn new() -> Self {
+        Self {
+            lo: [0.0; POINTS],
+            hi: [0.0; POINTS],
+        }
+    }
+}
+
+/// The timing problem of a path, forward or reversed (`s → 1 − s`: `q'` and `q'''` change
+/// sign, braking becomes speeding up).
+#[derive(Clone, Copy)]
+struct Problem<'a> {
+    samples: &'a PathSamples,
+    limits: &'a ToppLimits,
+    jerk: JerkBound,
+    reversed: bool,
+    /// Largest `x` at every grid point.
+    bound: [f64; POINTS],
+    /// Largest `s̈` and `−s̈` in every interval.
+    speed_up: [f64; INTERVALS],
+    braking: [f64; INTERVALS],
+    /// Slack of the feasibility tests.
+    slack: f64,
+    /// The largest derivatives around every grid point.
+    envelopes: [Envelope; POINTS],
+}
+
+/// The derivatives of the path at one grid point, in the problem's direction.
+struct Point {
+    slope: [f64; AXES],
+    curvature: [f64; AXES],
+    tcp_speed: f64,
+    tcp_curvature: f64,
+}
+
+/// The largest magnitudes of the derivatives at a grid point and its neighbours.
+#[derive(Clone, Copy)]
+struct Envelope {
+    slope: [f64; AXES],
+    curvature: [f64; AXES],
+    third: [f64; AXES],
+    tcp_speed: f64,
+    tcp_curvature: f64,
+}
+
+impl<'a> Problem<'a> {
+    fn new(
+        samples: &'a PathSamples,
+        limits: &'a ToppLimits,
+        jerk: JerkBound,
+    ) -> Result<Self, ToppError> {
+        let bound = speed_limits(samples, limits, jerk)?;
+        let mut problem = Self {
+            samples,
+            limits,
+            jerk,
+            reversed: false,
+            bound,
+            speed_up: [f64::INFINITY; INTERVALS],
+            braking: [f64::INFINITY; INTERVALS],
+            slack: FEASIBILITY * bound.iter().copied().fold(0.0, f64::max),
+            envelopes: core::array::from_fn(|k| envelope(samples, k)),
+        };
+        for k in 0..INTERVALS {
+            let reach = interval_reach(samples, limits, &bound, k);
+            let cross = problem.cross_bound(k).min(problem.cross_bound(k + 1));
+            problem.speed_up[k] = (limits.speed_up * reach).min(cross);
+            problem.braking[k] = (limits.braking * reach).min(cross);
+        }
+        Ok(problem)
+    }
+
+    /// The same problem on the reversed path.
+    fn reversed(&self) -> Self {
+        let mut bound = self.bound;
+        bound.reverse();
+        let mut envelopes = self.envelopes;
+        envelopes.reverse();
+        let (mut speed_up, mut braking) = (self.braking, self.speed_up);
+        speed_up.reverse();
+        braking.reverse();
+        Self {
+            reversed: !self.reversed,
+            bound,
+            speed_up,
+            braking,
+            envelopes,
+            ..*self
+        }
+    }
+
+    /// The index into the samples of grid point `k`.
+    fn index(&self, k: usize) -> usize {
+        if self.reversed { INTERVALS - k } else { k }
+    }
+
+    fn point(&self, k: usize) -> Point {
+        let i = self.index(k);
+        let sign = if self.reversed { -1.0 } else { 1.0 };
+        Point {
+            slope: self.samples.slope[i].map(|v| sign * v),
+            curvature: self.samples.curvature[i],
+            tcp_speed: self.samples.tcp_speed[i],
+            tcp_curvature: self.samples.tcp_curvature[i],
+        }
+    }
+
+    /// With the jerk bound, the largest `|s̈|` at grid point `k` for which
+    /// `3·|q''|·ṡ·|s̈|` takes at most [`CROSS_SHARE`] of the jerk budget left after
+    /// `|q'''|·ṡ³` at the largest speed around `k`; unbounded without.
+    fn cross_bound(&self, k: usize) -> f64 {
+        if self.jerk == JerkBound::Off {
+            return f64::INFINITY;
+        }
+        let around = k.saturating_sub(1)..=(k + 1).min(INTERVALS);
+        let v = self.bound[around]
+            .iter()
+            .fold(0.0f64, |m, b| m.max(*b))
+            .sqrt();
+        if !(v.is_finite() && v > 0.0) {
+            return f64::INFINITY;
+        }
+        let e = &self.envelopes[k];
+        let l = self.limits;
+        let mut bound = f64::INFINITY;
+        if e.tcp_curvature > MOVING {
+            bound = bound.min(CROSS_SHARE * GRID_MARGIN * l.tcp_jerk / (3.0 * e.tcp_curvature * v));
+        }
+        for i in 0..AXES {
+            if e.curvature[i] > MOVING {
+                let left = (GRID_MARGIN * l.jerk[i] - e.third[i] * v * v * v).max(0.0);
+                bound = bound.min(CROSS_SHARE * left / (3.0 * e.curvature[i] * v));
+            }
+        }
+        bound
+    }
+
+    /// The admissible `u` of stage `k` at `x` into `sets` at `k + 1`: `(lowest, highest)`.
+    fn u_range(&self, sets: &Sets, k: usize, x: f64) -> (f64, f64) {
+        let mut range = URange::at(x, self.slack);
+        self.stage(k, (sets.lo[k + 1], sets.hi[k + 1]), &mut range);
+        (range.lowest, range.highest)
+    }
+
+    /// The rows of stage `k` in `(u, x_k)`, with the controllable set `[lo, hi]` of `k + 1`.
+    fn stage(&self, k: usize, next: (f64, f64), rows: &mut impl RowSink) {
+        let (a, b) = (self.point(k), self.point(k + 1));
+        let two_step = 2.0 * STEP;
+        for i in 0..AXES {
+            let limit = GRID_MARGIN * self.limits.acceleration[i];
+            // At s_k: q'·u + q''·x; at s_{k+1}: q'·u + q''·(x + 2Δs·u).
+            let at_end = b.slope[i] + two_step * b.curvature[i];
+            for sign in [1.0, -1.0] {
+                rows.push(sign * a.slope[i], sign * a.curvature[i], limit);
+                rows.push(sign * at_end, sign * b.curvature[i], limit);
+            }
+        }
+        let limit = GRID_MARGIN * self.limits.tcp_acceleration;
+        for sign in [1.0, -1.0] {
+            rows.push(sign * a.tcp_speed, a.tcp_curvature, limit);
+            rows.push(
+                sign * b.tcp_speed + two_step * b.tcp_curvature,
+                b.tcp_curvature,
+                limit,
+            );
+        }
+        rows.push(1.0, 0.0, self.speed_up[k]);
+        rows.push(-1.0, 0.0, self.braking[k]);
+        rows.push(two_step, 1.0, next.1);
+        rows.push(-two_step, -1.0, -next.0);
+    }
+
+    /// The backward pass: the controllable sets of every grid point.
+    fn controllable(&self, sets: &mut Sets) -> Result<(), ToppError> {
+        sets.lo[INTERVALS] = 0.0;
+        sets.hi[INTERVALS] = 0.0;
+        let mut rows = StageRows::new();
+        for k in (0..INTERVALS).rev() {
+            rows.len = 0;
+            self.stage(k, (sets.lo[k + 1], sets.hi[k + 1]), &mut rows);
+            let (lo, hi) = rows
+                .x_range(self.bound[k], self.slack)
+                .ok_or(ToppError::Infeasible(self.index(k)))?;
+            sets.lo[k] = lo;
+            sets.hi[k] = hi;
+        }
+        if sets.lo[0] > self.slack {
+            return Err(ToppError::Infeasible(self.index(0)));
+        }
+        Ok(())
+    }
+
+    /// The forward pass without the jerk bound: the largest admissible `u` at every stage.
+    fn greedy(&self, sets: &Sets, x: &mut [f64; POINTS]) {
+        x[0] = 0.0;
+        for k in 0..INTERVALS {
+            let (_, highest) = self.u_range(sets, k, x[k]);
+            x[k + 1] = (x[k] + 2.0 * STEP * highest)
+                .max(sets.lo[k + 1])
+                .min(sets.hi[k + 1]);
+        }
+    }
+
+    /// The largest change of `s̈` around grid point `m` the jerk budget allows, for the
+    /// speeds² `x` around it (`before` at `m − 1`, `next` at `m + 1`, ignored at the ends)
+    /// and the path accelerations `before_u` of interval `m − 1` and `after_u` of `m`.
+    fn window(&self, m: usize, x: [f64; 3], before_u: f64, after_u: f64) -> f64 {
+        let [before, at, next] = x.map(|x| x.max(0.0));
+        let interval = |a: f64, b: f64| 2.0 * STEP / (a.sqrt() + b.sqrt());
+        let mut span = 0.0;
+        if m > 0 {
+            span += 0.5 * interval(before, at);
+        }
+        if m < INTERVALS {
+            span += 0.5 * interval(at, next);
+        }
+        let v = [
+            if m > 0 { before } else { 0.0 },
+            at,
+            if m < INTERVALS { next } else { 0.0 },
+        ]
+        .iter()
+        .fold(0.0f64, |a, b| a.max(*b))
+        .sqrt();
+        let acceleration = before_u.abs().max(after_u.abs());
+        let e = &self.envelopes[m];
+        let l = self.limits;
+        let mut jerk = f64::INFINITY;
+        if e.tcp_speed > MOVING {
+            let left = GRID_MARGIN * l.tcp_jerk - 3.0 * e.tcp_curvature * v * acceleration;
+            jerk = jerk.min(left / e.tcp_speed);
+        }
+        for i in 0..AXES {
+            if e.slope[i] > MOVING {
+                let left = GRID_MARGIN * l.jerk[i]
+                    - e.third[i] * v * v * v
+                    - 3.0 * e.curvature[i] * v * acceleration;
+                jerk = jerk.min(left / e.slope[i]);
+            }
+        }
+        if jerk > 0.0 { jerk * span } else { 0.0 }
+    }
+
+    /// The largest `u` of stage `k` up to `highest` that the jerk window around `k` allows
+    /// after `before_u` (speeds² `before` at `k − 1` and `at` at `k`).
+    fn ramp_up(&self, k: usize, before: f64, at: f64, before_u: f64, highest: f64) -> f64 {
+        self.ramp(k, [before, at], before_u, highest, 1.0)
+    }
+
+    /// The smallest `u` of stage `k` down to `lowest` that the jerk window allows (as
+    /// [`ramp_up`](Self::ramp_up)).
+    fn ramp_down(&self, k: usize, before: f64, at: f64, before_u: f64, lowest: f64) -> f64 {
+        self.ramp(k, [before, at], before_u, lowest, -1.0)
+    }
+
+    /// The `u` nearest `limit` in the direction `sign` (+1 up, −1 down) from `before_u`
+    /// within the jerk window, which itself depends on `u` (through the time of the
+    /// interval and the size of `s̈`): `sign·(u − before_u) ≤ window(u)`, solved by the
+    /// Illinois variant of regula falsi between `before_u` (inside) and `limit`.
+    #[allow(
+        clippy::float_cmp,
+        reason = "Some(true) and Some(false) are compared, not floats"
+    )]
+    fn ramp(&self, k: usize, x: [f64; 2], before_u: f64, limit: f64, sign: f64) -> f64 {
+        let room = |u: f64| {
+            let next = (x[1] + 2.0 * STEP * u).max(0.0);
+            self.window(k, [x[0], x[1], next], before_u, u) - sign * (u - before_u)
+        };
+        let mut outer = (limit, room(limit));
+        if outer.1 >= 0.0 {
+            return limit;
+        }
+        let mut inner = (before_u, room(before_u));
+        let mut last_inner = None;
+        for _ in 0..WINDOW_STEPS {
+            let secant = (inner.0 * outer.1 - outer.0 * inner.1) / (outer.1 - inner.1);
+            // An unbounded window (at rest: the interval's time has no bound) bisects.
+            let u = if secant.is_finite() {
+                secant
+            } else {
+                0.5 * (inner.0 + outer.0)
+            };
+            let r = room(u);
+            if r >= 0.0 {
+                inner = (u, r);
+                if last_inner == Some(true) {
+                    outer.1 *= 0.5;
+                }
+                last_inner = Some(true);
+            } else {
+                outer = (u, r);
+                if last_inner == Some(false) {
+                    inner.1 *= 0.5;
+                }
+                last_inner = Some(false);
+            }
+        }
+        inner.0
+    }
+
+    /// Whether `u` at stage `k` (speeds² `before` at `k − 1`, `at` at `k`) leaves a way
+    /// down: `u` lowered as fast as the jerk windows allow until it reaches the largest
+    /// braking of the rows (from where the controllable sets guarantee the rest) or the
+    /// path stops, within the controllable sets all along.
+    fn can_brake(&self, sets: &Sets, k: usize, at: f64, u: f64) -> bool {
+        let (mut before, mut at, mut before_u) = (at, at + 2.0 * STEP * u, u);
+        for j in k + 1..INTERVALS {
+            if at <= self.slack {
+                return true;
+            }
+            let (lowest, highest) = self.u_range(sets, j, at);
+            let u = self.ramp_down(j, before, at, before_u, lowest).max(lowest);
+            if u > highest + self.slack {
+                return false;
+            }
+            if u <= lowest {
+                return true;
+            }
+            (before, at, before_u) = (at, at + 2.0 * STEP * u, u);
+        }
+        at <= self.slack
+    }
+
+    /// The jerk-limited forward pass (see the module documentation): speeds² `x` and path
+    /// accelerations `u`.
+    fn jerk_greedy(&self, sets: &Sets, x: &mut [f64; POINTS], u: &mut [f64; INTERVALS]) {
+        x[0] = 0.0;
+        let (mut before, mut before_u) = (0.0, 0.0);
+        for k in 0..INTERVALS {
+            let (lowest, highest) = self.u_range(sets, k, x[k]);
+            let top = self.ramp_up(k, before, x[k], before_u, highest);
+            let safe = self
+                .ramp_down(k, before, x[k], before_u, lowest)
+                .max(lowest)
+                .min(highest);
+            let chosen = if top <= safe {
+                safe
+            } else if self.can_brake(sets, k, x[k], top) {
+                top
+            } else {
+                // One step between: the transition starts within half an interval.
+                let middle = 0.5 * (safe + top);
+                if self.can_brake(sets, k, x[k], middle) {
+                    middle
+                } else {
+                    safe
+                }
+            };
+            x[k + 1] = (x[k] + 2.0 * STEP * chosen)
+                .max(sets.lo[k + 1])
+                .min(sets.hi[k + 1]);
+            u[k] = (x[k + 1] - x[k]) / (2.0 * STEP);
+            (before, before_u) = (x[k], u[k]);
+        }
+    }
+
+    /// The first grid point where the change of `s̈` exceeds its jerk window, if any.
+    fn jerk_violation(&self, x: &[f64; POINTS], u: &[f64; INTERVALS]) -> Option<usize> {
+        (0..POINTS).find(|&m| {
+            let before_u = if m > 0 { u[m - 1] } else { 0.0 };
+            let after_u = if m < INTERVALS { u[m] } else { 0.0 };
+            let around = [x[m.saturating_sub(1)], x[m], x[(m + 1).min(INTERVALS)]];
+            let window = self.window(m, around, before_u, after_u);
+            (after_u - before_u).abs() > window * (1.0 + JERK_TOLERANCE) + self.slack
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;

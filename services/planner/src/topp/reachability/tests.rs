@@ -1,0 +1,251 @@
+use super::*;
+use crate::profile::DoubleS;
+use crate::topp::PathTimer;
+use crate::topp::tests::{
+    SLOPE, allocations, largest_tangential_jerk, limits, straight, trapezoid,
+};
+use proptest::prelude::*;
+use proptest::strategy::ValueTree;
+
+/// A smooth joint path `q_i(s) = c_i·s + Σ_h A_ih·sin(ω_h·s + φ_ih)` with its derivatives
+/// known exactly, and a straight TCP line of `length` m.
+#[derive(Debug, Clone)]
+struct Wavy {
+    slope: [f64; AXES],
+    amplitude: [[f64; 2]; AXES],
+    phase: [[f64; 2]; AXES],
+    length: f64,
+}
+
+const OMEGA: [f64; 2] = [3.0, 7.0];
+
+impl Wavy {
+    /// `(q', q'', q''')` of joint `i` at `s`.
+    fn derivatives(&self, i: usize, s: f64) -> (f64, f64, f64) {
+        let (mut d1, mut d2, mut d3) = (self.slope[i], 0.0, 0.0);
+        for (h, &w) in OMEGA.iter().enumerate() {
+            let (a, p) = (self.amplitude[i][h], self.phase[i][h]);
+            d1 += a * w * (w * s + p).cos();
+            d2 -= a * w * w * (w * s + p).sin();
+            d3 -= a * w * w * w * (w * s + p).cos();
+        }
+        (d1, d2, d3)
+    }
+
+    fn samples(&self) -> Box<PathSamples> {
+        let mut samples = Box::new(PathSamples::zeros());
+        for k in 0..POINTS {
+            let s = k as f64 / INTERVALS as f64;
+            for i in 0..AXES {
+                let (d1, d2, d3) = self.derivatives(i, s);
+                samples.slope[k][i] = d1;
+                samples.curvature[k][i] = d2;
+                samples.third[k][i] = d3.abs();
+            }
+            samples.tcp_speed[k] = self.length;
+        }
+        samples
+    }
+}
+
+fn wavy() -> impl Strategy<Value = Wavy> {
+    (
+        prop::array::uniform6(-1.5f64..1.5),
+        prop::array::uniform6(prop::array::uniform2(-0.15f64..0.15)),
+        prop::array::uniform6(prop::array::uniform2(0.0f64..6.3)),
+        0.05f64..0.8,
+    )
+        .prop_map(|(slope, amplitude, phase, length)| Wavy {
+            slope,
+            amplitude,
+            phase,
+            length,
+        })
+}
+
+/// Limits of the size of a cobot's, with a TCP line.
+fn cobot() -> ToppLimits {
+    ToppLimits {
+        velocity: [3.0, 3.0, 3.0, 4.0, 4.0, 4.0],
+        acceleration: [10.0, 10.0, 10.0, 15.0, 15.0, 15.0],
+        jerk: [50.0, 50.0, 50.0, 75.0, 75.0, 75.0],
+        tcp_velocity: 1.5,
+        tcp_acceleration: 6.0,
+        tcp_jerk: 30.0,
+        speed_up: 1.0,
+        braking: 1.0,
+        speed_cap: 20.0,
+        stop_braking: f64::INFINITY,
+        stop_jerk: f64::INFINITY,
+    }
+}
+
+/// The largest share of any joint limit the table uses, sampled every `dt` with the exact
+/// path derivatives: `(velocity, acceleration, jerk)`.
+fn largest_shares(path: &Wavy, table: &TableProfile, l: &ToppLimits) -> (f64, f64, f64) {
+    let dt = 2e-4;
+    let steps = (table.duration() / dt).ceil() as usize + 1;
+    let (mut v, mut a, mut j) = (0.0f64, 0.0f64, 0.0f64);
+    let mut previous: Option<[f64; AXES]> = None;
+    for n in 0..=steps {
+        let (s, sd, sdd) = table.eval(n as f64 * dt);
+        let mut qdd = [0.0; AXES];
+        for i in 0..AXES {
+            let (d1, d2, _) = path.derivatives(i, s);
+            qdd[i] = d2 * sd * sd + d1 * sdd;
+            v = v.max((d1 * sd).abs() / l.velocity[i]);
+            a = a.max(qdd[i].abs() / l.acceleration[i]);
+            if let Some(p) = previous {
+                j = j.max((qdd[i] - p[i]).abs() / dt / l.jerk[i]);
+            }
+        }
+        v = v.max(path.length * sd / l.tcp_velocity);
+        previous = Some(qdd);
+    }
+    (v, a, j)
+}
+
+#[test]
+fn a_straight_joint_path_takes_the_trapezoid_time() {
+    for (velocity, acceleration) in [(2.0, 8.0), (0.5, 8.0), (20.0, 2.0)] {
+        let mut l = limits();
+        l.velocity = [velocity; AXES];
+        l.acceleration = [acceleration; AXES];
+        let (table, passes) = time(&straight(), &l, JerkBound::Off, f64::INFINITY).unwrap();
+        assert_eq!(passes, 1);
+        let expected = trapezoid(GRID_MARGIN * velocity, GRID_MARGIN * acceleration);
+        let ratio = table.duration() / expected;
+        // Exact but for where the switch falls between grid points.
+        assert!(
+            (ratio - 1.0).abs() < 1e-4,
+            "{velocity} {acceleration}: {ratio}"
+        );
+    }
+}
+
+#[test]
+fn it_finds_the_optimum_of_the_conic_problem() {
+    let conic = PathTimer::conic(JerkBound::Off);
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    let l = cobot();
+    for _ in 0..3 {
+        let path = wavy().new_tree(&mut runner).unwrap().current();
+        let samples = path.samples();
+        let (ours, _) = time(&samples, &l, JerkBound::Off, f64::INFINITY).unwrap();
+        let reference = conic.time(&samples, &l, f64::INFINITY).unwrap();
+        let ratio = ours.duration() / reference.duration();
+        // Within the interior-point solver's tolerance, never slower than 0.5 %.
+        assert!((0.995..1.005).contains(&ratio), "{ratio} on {path:?}");
+    }
+}
+
+#[test]
+fn the_jerk_bound_keeps_the_joint_jerk_on_a_straight_path() {
+    let l = limits();
+    let (free, _) = time(&straight(), &l, JerkBound::Off, f64::INFINITY).unwrap();
+    let (bounded, _) = time(&straight(), &l, JerkBound::Joints, f64::INFINITY).unwrap();
+    // A straight path: q⃛ = q'·s⃛, joint 0 (|q'| = 1) decides.
+    let jerk = largest_tangential_jerk(&bounded, SLOPE[0]);
+    assert!(jerk <= 400.0 * (1.0 + 1e-6), "{jerk}");
+    assert!(largest_tangential_jerk(&free, SLOPE[0]) > 400.0);
+    // Close to the jerk-limited optimum of a straight joint move (ruckig's double S):
+    // the jerk costs a ramp of a/j at both ends of both accelerations.
+    let ratio = bounded.duration() / free.duration();
+    assert!((1.0..1.15).contains(&ratio), "{ratio}");
+}
+
+#[test]
+fn a_solve_allocates_nothing() {
+    let samples = straight();
+    let l = limits();
+    time(&samples, &l, JerkBound::Joints, f64::INFINITY).unwrap();
+    let before = allocations();
+    time(&samples, &l, JerkBound::Joints, f64::INFINITY).unwrap();
+    time(&samples, &l, JerkBound::Off, f64::INFINITY).unwrap();
+    assert_eq!(allocations() - before, 0);
+}
+
+#[test]
+fn a_path_without_motion_is_refused() {
+    let mut l = limits();
+    l.speed_cap = f64::INFINITY;
+    assert!(matches!(
+        time(&PathSamples::zeros(), &l, JerkBound::Off, f64::INFINITY),
+        Err(ToppError::NoMotion)
+    ));
+}
+
+#[test]
+fn different_rates_for_speeding_up_and_braking() {
+    let mut l = limits();
+    l.speed_up = 0.25;
+    let (slow_start, _) = time(&straight(), &l, JerkBound::Off, f64::INFINITY).unwrap();
+    // Speeding up at a quarter of the acceleration takes longer than braking.
+    let middle = slow_start.eval(0.5 * slow_start.duration());
+    assert!(middle.0 < 0.5, "{middle:?}");
+    let (both, _) = time(&straight(), &limits(), JerkBound::Off, f64::INFINITY).unwrap();
+    assert!(slow_start.duration() > both.duration());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// On any smooth path both passes keep the velocity and acceleration limits, the
+    /// jerk-limited one also the jerk.
+    #[test]
+    fn random_paths_keep_the_limits(path in wavy()) {
+        let l = cobot();
+        let samples = path.samples();
+        let (free, _) = time(&samples, &l, JerkBound::Off, f64::INFINITY).unwrap();
+        let (v, a, _) = largest_shares(&path, &free, &l);
+        prop_assert!(v <= 1.0 + 1e-9, "velocity {v}");
+        // The grid rows hold at the grid points; in between the margin pays.
+        prop_assert!(a <= 1.0 + 1e-3, "acceleration {a}");
+        let bounded = time(&samples, &l, JerkBound::Joints, f64::INFINITY);
+        let Ok((bounded, _)) = bounded else {
+            return Err(TestCaseError::fail(format!("{bounded:?}")));
+        };
+        let (v, a, j) = largest_shares(&path, &bounded, &l);
+        prop_assert!(v <= 1.0 + 1e-9, "velocity {v}");
+        prop_assert!(a <= 1.0 + 1e-3, "acceleration {a}");
+        prop_assert!(j <= 1.0 + 1e-2, "jerk {j}");
+        // Never faster than without the jerk bound (slower by what `|q'''|·ṡ³` alone
+        // demands on these wavy paths, up to twice).
+        prop_assert!(bounded.duration() >= free.duration());
+    }
+}
+
+#[test]
+fn a_straight_path_takes_the_time_of_the_jerk_limited_double_s() {
+    for (v, a, j) in [
+        (2.0, 8.0, 40.0),
+        (20.0, 8.0, 40.0),
+        (2.0, 3.0, 15.0),
+        (0.5, 3.0, 15.0),
+    ] {
+        let mut l = limits();
+        l.velocity = [v; AXES];
+        l.acceleration = [a; AXES];
+        l.jerk = [j; AXES];
+        let (table, _) = time(&straight(), &l, JerkBound::Joints, f64::INFINITY).unwrap();
+        // Joint 0 (|q'| = 1) decides; the double S is the time-optimal jerk-limited profile
+        // of a straight path (what ruckig finds for one joint).
+        let [v, a, j] = [v, a, j].map(|x| GRID_MARGIN * x);
+        let optimum = DoubleS::new(v, a, a, j).duration();
+        let ratio = table.duration() / optimum;
+        // The grid's blended s̈ may be a hair faster than the continuous optimum.
+        assert!((0.995..1.01).contains(&ratio), "{v} {a} {j}: {ratio}");
+        assert!(largest_tangential_jerk(&table, SLOPE[0]) <= j * (1.0 + 1e-6));
+    }
+}
+
+#[test]
+fn a_table_that_cannot_be_faster_is_not_made() {
+    let l = limits();
+    let (free, _) = time(&straight(), &l, JerkBound::Off, f64::INFINITY).unwrap();
+    assert!(matches!(
+        time(&straight(), &l, JerkBound::Joints, free.duration()),
+        Err(ToppError::NotFaster(_))
+    ));
+    assert!(time(&straight(), &l, JerkBound::Joints, 2.0 * free.duration()).is_ok());
+}
