@@ -3,7 +3,10 @@
 //! The station parameters exist three times: the factory values (from the configuration),
 //! the permanent ones (in the [`PermanentStore`], surviving a restart) and the current ones
 //! (what the device reports and uses). A Set with BlockQualifier bit 0 clear changes only the
-//! current value (temporary); with it set, the permanent value too. Reset to factory erases
+//! current value (temporary); with it set, the permanent value too. A temporary IP also
+//! deletes the stored one, as field devices do: after a power cycle the station has no IP
+//! until a controller assigns one (an S7 assigns it temporarily at every start-up). Reset to
+//! factory erases
 //! the store and returns to the factory values; the device holds no application data in
 //! DCP, so every reset mode does exactly that.
 //!
@@ -397,11 +400,32 @@ impl<S: PermanentStore, I: IpInterface> DcpResponder<S, I> {
         if !self.apply_ip(&ip) {
             return BlockError::SetNotPossible;
         }
-        let error = self.assign(permanent, outcome, |p| p.ip = ip);
+        let error = match permanent {
+            true => self.assign(true, outcome, |p| p.ip = ip),
+            false => match self.forget_permanent_ip() {
+                BlockError::NoError => self.assign(false, outcome, |p| p.ip = ip),
+                error => error,
+            },
+        };
         if error != BlockError::NoError && ip != previous {
             self.apply_ip(&previous);
         }
         error
+    }
+
+    /// Deletes the stored IP (a temporary Set IP does); the rest of the store stays.
+    fn forget_permanent_ip(&mut self) -> BlockError {
+        if !self.permanent.ip.is_set() {
+            return BlockError::NoError;
+        }
+        let mut stored = self.permanent.clone();
+        stored.ip = IpParameter::UNSET;
+        if let Err(error) = self.store.save(&stored) {
+            tracing::warn!(%error, "cannot delete the permanent IP for a temporary one");
+            return BlockError::ResourceError;
+        }
+        self.permanent = stored;
+        BlockError::NoError
     }
 
     /// Applies `ip` to the interface; false (logged) when the interface refuses it.
@@ -841,6 +865,41 @@ mod tests {
         let (_, reply) = handle(&mut device, &set(&[5, 6, 0, 2, 0, 4]));
         assert_eq!(block_errors(&reply), [(5, 6, 0)]);
         assert_eq!(device.interface.applied, [CELL_IP, IpParameter::UNSET]);
+    }
+
+    #[test]
+    fn a_temporary_ip_deletes_the_stored_one_and_keeps_the_stored_name() {
+        let mut device = responder("rc-robot");
+        handle(&mut device, &set_name(b"cell1-robot", 1));
+        handle(&mut device, &set_ip(CELL_IP, 1));
+        assert_eq!(device.permanent().ip, CELL_IP);
+        let s7 = IpParameter {
+            address: Ipv4Addr::new(172, 16, 2, 10),
+            subnet_mask: Ipv4Addr::new(255, 255, 255, 0),
+            gateway: Ipv4Addr::new(172, 16, 2, 10),
+        };
+        let (_, reply) = handle(&mut device, &set_ip(s7, 0));
+        assert_eq!(block_errors(&reply), [(1, 2, 0)]);
+        assert_eq!(device.current().ip, s7);
+        let stored = device.store.stored.clone().unwrap();
+        assert_eq!(
+            (stored.ip, device.permanent().ip),
+            (IpParameter::UNSET, IpParameter::UNSET)
+        );
+        assert_eq!(stored.name_of_station.as_str(), "cell1-robot");
+        // After a restart the station has no IP until a controller assigns one, and the
+        // interface is left as it is.
+        let restarted = DcpResponder::new(
+            identity(),
+            named("rc-robot"),
+            MemoryStore {
+                stored: Some(stored),
+            },
+            FakeInterface::default(),
+        );
+        assert!(!restarted.current().ip.is_set());
+        assert!(restarted.interface.applied.is_empty());
+        assert_eq!(restarted.current().name_of_station.as_str(), "cell1-robot");
     }
 
     #[test]
