@@ -7,6 +7,7 @@ use shared_types::srci::message::{code, state};
 use shared_types::srci::payload::{PayloadReader, PayloadWriter};
 use shared_types::srci::tables::move_circular_absolute as mca;
 
+use super::move_linear_absolute::orientation_deviation;
 use super::move_requests::{
     assert_tcp_at, expect_move_done, follow_tcp, initialized_with_cyclic_tcp, keep_configuration,
     move_request, set_pose, shifted, tcp,
@@ -44,6 +45,26 @@ fn the_tcp_follows_the_arc_through_the_aux_point() {
     assert_eq!(r.u16(mca::response::PROGRESS), 10_000);
     assert_eq!(r.f32(mca::response::REMAINING_DISTANCE), 0.0);
     assert_tcp_at(&mut plc, end);
+}
+
+#[test]
+fn joint_interpolated_keeps_the_tcp_on_the_arc_and_ends_at_the_target_orientation() {
+    let (_c, mut plc) = initialized_with_cyclic_tcp("mcaj");
+    reset_and_enable(&mut plc);
+    let start = tcp(&mut plc, 0, 0);
+    let centre = shifted(start, [50.0, 0.0, 0.0]);
+    let aux = shifted(start, [50.0, 50.0, 0.0]);
+    let mut end = shifted(start, [100.0, 0.0, 0.0]);
+    end[3] += 10.0;
+    end[5] -= 15.0;
+    let request = arc(aux, end, |w| w.set_u8(mca::request::ORI_MODE, 2));
+    follow_arc(&mut plc, &request, centre, 50.0, |_| {});
+    let reached = tcp(&mut plc, 0, 0);
+    assert_tcp_at(&mut plc, end);
+    assert!(
+        orientation_deviation(reached, end) < 0.01,
+        "{reached:?} vs {end:?}"
+    );
 }
 
 /// Runs the arc of `request` to DONE and checks that the TCP (tool 0, frame 0) of every

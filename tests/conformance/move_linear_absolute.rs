@@ -136,7 +136,7 @@ fn the_tcp_moves_on_a_straight_line_to_a_target_in_a_user_frame() {
 }
 
 /// The angle (degrees) between two orientations given as Rx, Ry, Rz (degrees).
-fn orientation_deviation(a: [f64; 6], b: [f64; 6]) -> f64 {
+pub fn orientation_deviation(a: [f64; 6], b: [f64; 6]) -> f64 {
     let rotation = |p: [f64; 6]| {
         shared_types::pose::rotation_from_rpy(
             p[3].to_radians(),

@@ -51,14 +51,15 @@
 //! OriMode 0 and 1 interpolate from the start orientation `R0` to the target's `R1` on the
 //! shortest rotation, `R(s) = exp(s·ω)·R0`; 3 FIX keeps `R0`. 4 PATH keeps the orientation's
 //! attitude to the path's tangent ("no change of orientation in relation to the
-//! trajectory"): on a line the tangent does not turn, so the start orientation stays, as with
-//! FIX; on an arc the orientation turns with the arc and what remains to the target is spread
-//! evenly: `R(s) = Rot(n, s·θ)·exp(s·ω')·R0` with `ω'` the rotation vector of
-//! `Rot(n, θ)⁻¹·R1·R0⁻¹`; a target orientation equal to the start's turned with the arc gives
-//! the pure turn. 2 JOINT_INTERPOLATED (lines only) interpolates the wrist joints, not the
-//! orientation ([`wrist_interpolation`](crate::wrist_interpolation)): the path here carries
-//! the slerp to the target as a reference, and the orientation the joints give meets it at
-//! both ends.
+//! trajectory") and still ends at the target's: on an arc the orientation turns with the arc
+//! and what remains to the target is spread evenly: `R(s) = Rot(n, s·θ)·exp(s·ω')·R0` with
+//! `ω'` the rotation vector of `Rot(n, θ)⁻¹·R1·R0⁻¹` (a target orientation equal to the
+//! start's turned with the arc gives the pure turn); on a line the tangent does not turn, so
+//! the whole difference is spread, as with 1. 2 JOINT_INTERPOLATED interpolates the wrist
+//! joints, not the orientation ([`wrist_interpolation`](crate::wrist_interpolation)): the
+//! path here carries the orientation of 1 as a reference (on a CENTER_WITH_ANGLE arc the one
+//! turning with the arc, its EndPoint having no orientation), and the orientation the joints
+//! give meets it at both ends.
 
 use core::f64::consts::{FRAC_PI_2, TAU};
 
@@ -158,7 +159,7 @@ pub fn is_cartesian(command: &MotionCommand) -> bool {
 pub enum OriMode {
     /// 0 (standard) and 1 LINEAR_INTERPOLATED: slerp on the shortest rotation to the target.
     Interpolated,
-    /// 2 JOINT_INTERPOLATED: the wrist joints move linearly to the target's (lines only).
+    /// 2 JOINT_INTERPOLATED: the wrist joints move linearly to the target's.
     JointInterpolated,
     /// 3 FIX: the start orientation all the way.
     Fix,
@@ -298,9 +299,6 @@ fn request(command: &MotionCommand) -> Result<Request, PathError> {
             ori_mode,
             arc: None,
         });
-    }
-    if ori_mode == OriMode::JointInterpolated {
-        return Err(PathError::OriModeNotSupported(command.ori_mode));
     }
     let finite = command
         .aux_pose
@@ -650,10 +648,10 @@ impl CartesianPath {
         let (orientation, turns_with_path) = match request.ori_mode {
             OriMode::Fix => (Reorientation::between(r0, &r0), false),
             // The EndPoint is not used: its orientation may be anything.
-            OriMode::Interpolated | OriMode::Path if by_angle => {
+            // (JOINT_INTERPOLATED ends at the joints of this reference orientation.)
+            OriMode::Interpolated | OriMode::JointInterpolated | OriMode::Path if by_angle => {
                 (Reorientation::between(r0, &r0), true)
             }
-            // `request` refuses JOINT_INTERPOLATED on arcs.
             OriMode::Interpolated | OriMode::JointInterpolated => {
                 (Reorientation::between(r0, &target.rotation), false)
             }
@@ -1017,11 +1015,10 @@ mod tests {
     fn undefined_wire_values_are_refused_with_their_codes() {
         let base = circular(0, [0.3, 0.2, 0.3], [0.2, 0.1, 0.3]);
         type Change = fn(&mut MotionCommand);
-        let cases: [(Change, u16); 8] = [
+        let cases: [(Change, u16); 7] = [
             (|c| c.circle_mode = 4, code::INVALID_MODE),
             (|c| c.circle_plane = 3, code::INVALID_MODE),
             (|c| c.path_choice = 2, code::INVALID_MODE),
-            (|c| c.ori_mode = 2, code::ORI_MODE_NOT_SUPPORTED),
             (|c| c.ori_mode = 5, code::INVALID_ORI_MODE),
             (|c| c.aux_pose[0] = f64::INFINITY, code::INVALID_POSITION),
             (

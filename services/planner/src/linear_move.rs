@@ -14,7 +14,7 @@
 //! point's, so the joints follow the path continuously. OriMode 2 (JOINT_INTERPOLATED)
 //! takes the joints from a [`WristInterpolation`] instead: the wrist joints move linearly
 //! to the start branch's solution of the target (on the turns nearest the start), J1..J3
-//! hold the TCP on the line. Before the move the path is surveyed
+//! hold the TCP on the line or arc. Before the move the path is surveyed
 //! at [`SAMPLES`]` + 1` points: each must be reachable in that branch, stay farther from the
 //! singular sets than the thresholds of [`kinematics`](crate::kinematics) (the configuration
 //! cannot change without passing one), lie within the joint limits and be near the sample
@@ -299,10 +299,10 @@ impl Line {
             let target = line
                 .joints_at(1.0, &start)
                 .ok_or(LinearError::Unreachable { s: 1.0 })?;
-            let end = path.tcp(1.0).translation.vector;
             let wrist = [target[3], target[4], target[5]];
+            let position = |s: f64| path.tcp(s).translation.vector;
             line.wrist = Some(
-                WristInterpolation::solve(arm.kinematics, tool, &start, &end, wrist).map_err(
+                WristInterpolation::solve(arm.kinematics, tool, &start, position, wrist).map_err(
                     |e| match e {
                         WristPathError::NotConverged { s } => LinearError::Unreachable { s },
                         WristPathError::Singular { s } => LinearError::Singular { s },
@@ -1370,6 +1370,35 @@ mod tests {
             );
             setup.check_limits(&points);
         }
+    }
+
+    #[test]
+    fn joint_interpolated_on_an_arc_keeps_the_tcp_on_it_and_ends_at_the_target_pose() {
+        let setup = Setup::new();
+        let start = regular();
+        let r = 0.08;
+        let (mut c, centre) = half_circle(&setup, &start, 1, r);
+        c.ori_mode = 2;
+        let target = pose::isometry(c.pose);
+        let turned = UnitQuaternion::from_euler_angles(0.3, -0.2, 0.4) * target.rotation;
+        c.pose = pose_of(&Isometry3::from_parts(target.translation, turned));
+        let m = setup.planned(start, &c);
+        let points = setup.run(&m, start);
+        let (first, last) = (points[0].q, points.last().unwrap().q);
+        for p in &points {
+            let tcp = setup.tcp_of(&p.q, &c).translation.vector;
+            assert!(((tcp - centre).norm() - r).abs() < 1e-5, "off the arc");
+            // The wrist joints on their straight line in joint space.
+            let share = (p.q[3] - first[3]) / (last[3] - first[3]);
+            for j in 4..AXES {
+                let expected = first[j] + share * (last[j] - first[j]);
+                assert!((p.q[j] - expected).abs() < 1e-6, "J{}", j + 1);
+            }
+        }
+        let end = setup.tcp_of(&last, &c);
+        assert!((end.translation.vector - target.translation.vector).norm() < 1e-9);
+        assert!(end.rotation.angle_to(&turned) < 1e-9);
+        setup.check_limits(&points);
     }
 
     #[test]

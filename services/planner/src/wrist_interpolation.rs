@@ -1,7 +1,7 @@
-//! OriMode 2 JOINT_INTERPOLATED on a straight line: the TCP position follows the line, the
-//! wrist joints J4..J6 move linearly from their start values to the target's, and the arm
-//! joints J1..J3 keep the TCP on the line. The orientation is whatever the joints give; it is
-//! the start's at `s = 0` and the target's at `s = 1`.
+//! OriMode 2 JOINT_INTERPOLATED on a TCP path (a straight line or an arc): the TCP position
+//! follows the path, the wrist joints J4..J6 move linearly from their start values to the
+//! target's, and the arm joints J1..J3 keep the TCP on the path. The orientation is whatever
+//! the joints give; it is the start's at `s = 0` and the target's at `s = 1`.
 //!
 //! # Solving
 //!
@@ -9,15 +9,16 @@
 //! on the TCP position, `q_a ← q_a + J_a⁻¹·(p(s) − p_tcp(q))`, with `J_a` the 3×3 block of the
 //! TCP's linear Jacobian for J1..J3 (the flange's linear columns plus `ω × R·t` for the tool
 //! offset `t`), seeded from the sample before extrapolated along its slope. Each sample also
-//! keeps its exact slope `dq_a/ds = J_a⁻¹·(p' − J_w·w')`, with `J_w` the block of J4..J6 and
-//! `w'` the wrist joints' travel. A sample that does not converge, or whose Newton step
-//! would jump ([`MAX_STEP_RAD`]), leaves the reach of the start branch; a singular `J_a`
-//! (shoulder or elbow singularity) cannot hold the TCP on the line: both refuse the move.
+//! keeps its slope `dq_a/ds = J_a⁻¹·(p' − J_w·w')`, with `J_w` the block of J4..J6, `w'`
+//! the wrist joints' travel and `p'` the path's tangent (a central difference of the path
+//! position, exact for a line). A sample that does not converge, or whose Newton step would
+//! jump ([`MAX_STEP_RAD`]), leaves the reach of the start branch; a singular `J_a` (shoulder
+//! or elbow singularity) cannot hold the TCP on the path: both refuse the move.
 //!
 //! # Between the samples
 //!
 //! J1..J3 follow the cubic Hermite interpolation of the samples and their slopes: position
-//! and slope are continuous, and the TCP lies off the line by `O(h⁴)` of the fourth
+//! and slope are continuous, and the TCP lies off the path by `O(h⁴)` of the fourth
 //! derivative (well below a micrometre for the shipped arms). Evaluation is allocation-free
 //! and costs no kinematics at all, so it serves the 1 ms tick.
 
@@ -33,24 +34,26 @@ pub const POSITION_TOLERANCE_M: f64 = 1e-11;
 pub const MAX_STEP_RAD: f64 = 0.25;
 /// Newton iterations per sample before it counts as not converged.
 const MAX_ITERATIONS: usize = 20;
+/// Step of `s` for the path's tangent.
+const TANGENT_STEP: f64 = 1e-6;
 /// Smallest `|det J_a|` (m³) for which J1..J3 can move the TCP in every direction.
 const MIN_DETERMINANT: f64 = 1e-9;
 
 /// The arm joints J1..J3 and the wrist joints J4..J6.
 const ARM: usize = 3;
 
-/// Why no joint-interpolated path follows the line.
+/// Why J1..J3 cannot keep the TCP on the path.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum WristPathError {
-    /// J1..J3 find no position on the line at `s` in the start branch.
-    #[error("J1..J3 find no solution on the line at s = {s}")]
+    /// J1..J3 find no position on the path at `s` in the start branch.
+    #[error("J1..J3 find no solution on the path at s = {s}")]
     NotConverged { s: f64 },
     /// J1..J3 cannot move the TCP in every direction at `s`.
     #[error("J1..J3 are singular at s = {s}")]
     Singular { s: f64 },
 }
 
-/// A straight TCP line with linearly interpolated wrist joints, solved for J1..J3.
+/// A TCP path (line or arc) with linearly interpolated wrist joints, solved for J1..J3.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WristInterpolation {
     /// J4..J6 at `s = 0`.
@@ -64,17 +67,16 @@ pub struct WristInterpolation {
 }
 
 impl WristInterpolation {
-    /// Solves the TCP (tool `tool` on the flange) on the line from its position at the joints
-    /// `start` to `end` (base frame, m), the wrist joints moving linearly to `wrist_target`.
+    /// Solves the TCP (tool `tool` on the flange) on the path `position(s)` (base frame, m,
+    /// `s` in [0, 1], starting where the TCP is at the joints `start`), the wrist joints
+    /// moving linearly to `wrist_target`.
     pub fn solve(
         kinematics: &Kinematics,
         tool: &Isometry3<f64>,
         start: &[f64; AXES],
-        end: &Vector3<f64>,
+        position: impl Fn(f64) -> Vector3<f64>,
         wrist_target: [f64; ARM],
     ) -> Result<Self, WristPathError> {
-        let begin = (kinematics.flange(start) * tool).translation.vector;
-        let travel = end - begin;
         let wrist_start = [start[3], start[4], start[5]];
         let wrist_travel: [f64; ARM] = core::array::from_fn(|i| wrist_target[i] - wrist_start[i]);
         let mut path = Self {
@@ -89,11 +91,13 @@ impl WristInterpolation {
         for k in 0..POINTS {
             let s = k as f64 * h;
             let guess = core::array::from_fn(|i| seed[i] + seed_slope[i] * h);
-            let q = path.newton(kinematics, tool, s, &(begin + travel * s), guess)?;
+            let q = path.newton(kinematics, tool, s, &position(s), guess)?;
             let arm_block = ArmBlock::at(kinematics, tool, &q);
             let w = Vector3::from(wrist_travel);
+            let (before, after) = ((s - TANGENT_STEP).max(0.0), (s + TANGENT_STEP).min(1.0));
+            let tangent = (position(after) - position(before)) / (after - before);
             let slope = arm_block.inverse.ok_or(WristPathError::Singular { s })?
-                * (travel - arm_block.wrist * w);
+                * (tangent - arm_block.wrist * w);
             path.arm[k] = [q[0], q[1], q[2]];
             path.arm_slope[k] = slope.into();
             seed = path.arm[k];
@@ -210,6 +214,11 @@ mod tests {
         kinematics.flange(q) * tool()
     }
 
+    /// The straight path from `a` to `b`.
+    fn line(a: Vector3<f64>, b: Vector3<f64>) -> impl Fn(f64) -> Vector3<f64> {
+        move |s| a + (b - a) * s
+    }
+
     fn off_line(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
         let dir = (b - a).normalize();
         let d = p - a;
@@ -223,7 +232,7 @@ mod tests {
         let p0 = tcp(k, &START).translation.vector;
         let end = p0 + Vector3::new(0.12, -0.08, 0.1);
         let wrist = [1.3, 0.8, -0.5];
-        let path = WristInterpolation::solve(k, &tool(), &START, &end, wrist).unwrap();
+        let path = WristInterpolation::solve(k, &tool(), &START, line(p0, end), wrist).unwrap();
         assert_eq!(path.joints(0.0), START);
         for i in 0..=1000 {
             let s = f64::from(i) / 1000.0;
@@ -242,12 +251,42 @@ mod tests {
     }
 
     #[test]
+    fn the_tcp_stays_on_an_arc_while_the_wrist_joints_move_linearly() {
+        let robot = test_robots::default();
+        let k = &robot.kinematics;
+        let p0 = tcp(k, &START).translation.vector;
+        // A half circle of 8 cm radius in a tilted plane through the start.
+        let (u, v) = (
+            Vector3::new(1.0, 0.0, 0.3).normalize(),
+            Vector3::new(0.0, 1.0, 0.0),
+        );
+        let (radius, centre) = (0.08, p0 - u * 0.08);
+        let arc = move |s: f64| {
+            let angle = s * core::f64::consts::PI;
+            centre + (u * angle.cos() + v * angle.sin()) * radius
+        };
+        let wrist = [1.1, 0.9, -0.3];
+        let path = WristInterpolation::solve(k, &tool(), &START, arc, wrist).unwrap();
+        for i in 0..=1000 {
+            let s = f64::from(i) / 1000.0;
+            let q = path.joints(s);
+            let p = tcp(k, &q).translation.vector;
+            assert!((p - arc(s)).norm() < 1e-8, "s = {s}");
+            for j in 0..3 {
+                let expected = START[3 + j] + s * (wrist[j] - START[3 + j]);
+                assert!((q[3 + j] - expected).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
     fn slopes_are_the_derivatives_of_the_joints() {
         let robot = test_robots::default();
         let k = &robot.kinematics;
         let p0 = tcp(k, &START).translation.vector;
         let end = p0 + Vector3::new(-0.1, 0.15, -0.05);
-        let path = WristInterpolation::solve(k, &tool(), &START, &end, [0.6, 1.5, 1.0]).unwrap();
+        let path =
+            WristInterpolation::solve(k, &tool(), &START, line(p0, end), [0.6, 1.5, 1.0]).unwrap();
         let h = 1.0 / INTERVALS as f64;
         for n in [1, 40, 128, 200, INTERVALS - 1] {
             // The solved slope is the one of the solved samples either side of it...
@@ -285,7 +324,7 @@ mod tests {
         let k = &robot.kinematics;
         let p0 = tcp(k, &START).translation.vector;
         let far = p0 + Vector3::new(3.0, 0.0, 0.0);
-        let e = WristInterpolation::solve(k, &tool(), &START, &far, [0.9, 1.2, 0.4]);
+        let e = WristInterpolation::solve(k, &tool(), &START, line(p0, far), [0.9, 1.2, 0.4]);
         assert!(
             matches!(
                 e,
@@ -313,7 +352,7 @@ mod tests {
             let end = p0 + Vector3::from(shift);
             prop_assume!(shift.iter().map(|v| v * v).sum::<f64>() > 1e-6);
             let target = [start[3] + wrist[0], start[4] + wrist[1], start[5] + wrist[2]];
-            let Ok(path) = WristInterpolation::solve(k, &tool(), &start, &end, target) else {
+            let Ok(path) = WristInterpolation::solve(k, &tool(), &start, line(p0, end), target) else {
                 return Err(TestCaseError::reject("no solution"));
             };
             for i in 0..=200 {
