@@ -97,9 +97,13 @@ fn default_rates_are_stored_and_apply_to_default_moves() {
     );
     assert_eq!((s.state, s.code), (state::DONE, 0), "{s:?}");
     let given = s.final_at.expect("final") - s.active_at.expect("active");
+    // Wall-clock durations seen by the PLC: on a loaded machine one move may stretch by a
+    // fifth (a clean-clone CI run saw 1.19, with hundreds of servo overruns). Default rates
+    // of 50 % or 100 % instead of 25 % would give about 0.6 or 0.3: the window still tells
+    // them apart.
     let ratio = slower.as_secs_f64() / given.as_secs_f64();
     assert!(
-        (0.9..1.1).contains(&ratio),
+        (0.75..1.33).contains(&ratio),
         "default 25 % like explicit 25 %: {slower:?} vs {given:?}"
     );
 
