@@ -27,6 +27,7 @@ use anyhow::{Context, bail};
 use fieldbus::profinet_timing::REPLY_TIMING_LOG;
 use orchestrator::child_process;
 use plc_client::engine::CyclicSelection;
+use profinet::ethernet::{ETHER_TYPE_PROFINET, EthernetHeader};
 use profinet::link::veth::VethPair;
 use shared_types::config::Config;
 use shared_types::srci::telegram::{
@@ -788,15 +789,12 @@ fn merge_captures(captures: Vec<Vec<(u64, &[u8])>>) -> Vec<(u64, &[u8])> {
 }
 
 /// The FrameID and what follows it (the C_SDU, then the APDU status) of a PROFINET RT frame
-/// (EtherType 0x8892 after any 802.1Q tags); `None` for any other frame.
+/// (tagged or untagged); `None` for any other frame.
 fn rt_payload(frame: &[u8]) -> Option<(u16, &[u8])> {
-    let be16 = |at: usize| Some(u16::from_be_bytes(frame.get(at..at + 2)?.try_into().ok()?));
-    let mut at = 12;
-    while be16(at)? == 0x8100 {
-        at += 4;
-    }
-    (be16(at)? == 0x8892).then_some(())?;
-    Some((be16(at + 2)?, frame.get(at + 4..)?))
+    let (header, payload) = EthernetHeader::parse(frame).ok()?;
+    (header.ether_type == ETHER_TYPE_PROFINET).then_some(())?;
+    let frame_id = u16::from_be_bytes(payload.get(..2)?.try_into().ok()?);
+    Some((frame_id, &payload[2..]))
 }
 
 /// The SEQ_ACK of the (first) sequence of `telegram`, behind its header and `cyclic_len`

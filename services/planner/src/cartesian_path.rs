@@ -79,7 +79,7 @@ pub const COLLINEAR_M: f64 = 1e-4;
 /// for CW and CCW to be told apart (the planes within about 84°).
 pub const MIN_SENSE: f64 = 0.1;
 /// Shortest line (m) counted as a translation.
-const ZERO_LENGTH_M: f64 = 1e-9;
+pub(crate) const ZERO_LENGTH_M: f64 = 1e-9;
 /// Smallest rotation (rad) counted as a reorientation or an arc.
 const ZERO_ANGLE_RAD: f64 = 1e-9;
 

@@ -18,7 +18,7 @@
 //! used the look-ahead points of the last window; the executor replays those ticks first, so
 //! its state is always the one the servo followed.
 
-use shared_types::config::{Config, JointLimitsRad};
+use shared_types::config::Config;
 use shared_types::ipc::{
     AXES, DriveState, JointPoint, MotionCommand, MotionCommandKind, MotionSequence, MotionStatus,
     SETPOINT_WINDOW, ServoFeedback, ServoSetpoint,
@@ -451,16 +451,11 @@ impl Executor {
         } else {
             return None;
         };
-        let robot = &self.dynamics.limits;
-        let (a, b) = (
-            move_limits(robot, &outgoing.command),
-            move_limits(robot, &next.command),
+        // Both moves' SW limits hold on the overlap.
+        let limits = move_limits(
+            &move_limits(&self.dynamics.limits, &outgoing.command),
+            &next.command,
         );
-        let limits = JointLimitsRad {
-            min: core::array::from_fn(|i| a.min[i].max(b.min[i])),
-            max: core::array::from_fn(|i| a.max[i].min(b.max[i])),
-            ..*robot
-        };
         let leg = |path, command: &MotionCommand| PathLeg {
             path,
             kinematics: &self.kinematics,

@@ -41,7 +41,7 @@
 //!      joint over the samples, times [`SAMPLING_MARGIN`] for what lies between the samples.
 //!      For a path speed `V` and a split `f` of the jerk budget the limits are
 //!      - `V ≤ rate_v·v_i/|q'_i|`, `V² ≤ CURVATURE_SHARE·a_i/|q''_i|`,
-//!        `V³ ≤ JERK_SHARE·j_i/|q'''_i|`;
+//!        `V³ ≤ THIRD_SHARE·j_i/|q'''_i|`;
 //!      - `s̈ ≤ rate_a·(a_i − |q''_i|·V²)/|q'_i|` (the deceleration with its own rate) and
 //!        `|s̈| ≤ f·(j_i − |q'''_i|·V³)/(3·|q''_i|·V)`;
 //!      - `|s⃛| ≤ rate_j·(j_i − |q'''_i|·V³ − 3·|q''_i|·V·|s̈|)/|q'_i|`;
@@ -57,7 +57,7 @@
 //! **Stops and override.** A stop brakes with constant path limits ([`Timing::limits`]). For
 //! the double-S they are its own; for the table they are the constant bounds above at its
 //! speed cap `V_stop = min_i min(√(CURVATURE_SHARE·a_i/|q''_i|),
-//! ∛(JERK_SHARE·j_i/|q'''_i|))` (of the jerk splits the one that stops in the shortest
+//! ∛(THIRD_SHARE·j_i/|q'''_i|))` (of the jerk splits the one that stops in the shortest
 //! distance), which the table never exceeds, so a stop from anywhere on the table keeps the
 //! limits. A stop must also end before the end of the path, which the table reaches braking
 //! harder than those bounds: its speed is held below what they brake within
@@ -88,8 +88,6 @@ pub const SAMPLES: usize = topp::INTERVALS;
 /// Factor on the largest sampled `|q'|` and `|q''|` for the parts of the path between the
 /// samples.
 pub const SAMPLING_MARGIN: f64 = 1.1;
-/// Share of a joint's jerk limit the term `q'''·ṡ³` may take at most.
-pub const JERK_SHARE: f64 = 0.5;
 /// Path speeds tried, in equal steps up to the fastest the limits allow.
 pub const SPEED_STEPS: usize = 8;
 /// Shares of the jerk left after `q'''·ṡ³` tried for `3·q''·ṡ·s̈`; the tangential term
@@ -101,8 +99,6 @@ pub const CURVATURE_SHARE: f64 = 0.5;
 const STOP_PROBE: f64 = 0.25;
 /// Step of `s` for the central differences of the joints.
 const DIFF_STEP: f64 = 1e-3;
-/// Shortest line (m) counted as a translation.
-const ZERO_LENGTH_M: f64 = 1e-9;
 /// How closely (rad) the start branch must reproduce the start joints.
 const START_TOLERANCE_RAD: f64 = 1e-6;
 /// Largest joint change (rad) between two survey samples. A regular path changes far less
@@ -565,7 +561,7 @@ fn path_limits(
 /// The TCP limits times the command's rates over the path `length` (m), as path limits.
 fn cartesian_limits(command: &MotionCommand, length: f64, tcp: &TcpLimits) -> PathLimits {
     let per_length = |limit: f64, rate: f64| {
-        if length > ZERO_LENGTH_M {
+        if length > cartesian_path::ZERO_LENGTH_M {
             rate * limit / length
         } else {
             f64::INFINITY
@@ -730,12 +726,12 @@ impl<'a> JointBounds<'a> {
     }
 
     /// The largest path speed up to which constant stop bounds exist:
-    /// `|q''|·ṡ² ≤ CURVATURE_SHARE·a` and `|q'''|·ṡ³ ≤ JERK_SHARE·j` (1/s).
+    /// `|q''|·ṡ² ≤ CURVATURE_SHARE·a` and `|q'''|·ṡ³ ≤ THIRD_SHARE·j` (1/s).
     fn stop_speed(&self) -> f64 {
         let j = self.joints;
         (0..AXES).fold(f64::INFINITY, |v, i| {
             v.min((CURVATURE_SHARE * j.acceleration[i] / self.curvature[i]).sqrt())
-                .min((JERK_SHARE * j.jerk[i] / self.third[i]).cbrt())
+                .min((topp::THIRD_SHARE * j.jerk[i] / self.third[i]).cbrt())
         })
     }
 

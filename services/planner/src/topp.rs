@@ -81,8 +81,9 @@ pub const STOP_SHARE: f64 = 0.9;
 const MOVING: f64 = 1e-12;
 /// Share of the jerk budget at rest a point keeps when the estimates leave none.
 const JERK_FLOOR: f64 = 0.05;
-/// Share of a joint's jerk limit the term `q'''·ṡ³` may take at most.
-const THIRD_SHARE: f64 = 0.5;
+/// Share of a joint's jerk limit the term `q'''·ṡ³` may take at most (the table's cap and
+/// the constant stop bounds of [`linear_move`](crate::linear_move) alike).
+pub const THIRD_SHARE: f64 = 0.5;
 /// Right-hand side of a jerk row that cannot bind: the scaled `b` lies in [0, 1].
 const UNBOUND: f64 = 4.0;
 

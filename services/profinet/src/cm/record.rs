@@ -1,5 +1,6 @@
 //! Record data: what a Read returns (I&M0 to I&M4, RealIdentificationData, the diagnosis
-//! records, the physical-device records of [`super::pd_real`]) and what a Write does with each record (PDInterfaceAdjust kept, I&M1 to I&M4
+//! records, the physical-device records of [`super::pd_real`]) and what a Write does with
+//! each record (PDInterfaceAdjust, PDPortDataCheck and PDPortDataAdjust kept, I&M1 to I&M4
 //! taken, the rest refused by name), with the Write response carrying one PNIOStatus per
 //! record. An index this device does not have is answered with PNIOStatus "invalid
 //! index" (0xDE/0xDF 0x80 0xB0), never left unanswered.

@@ -6,9 +6,8 @@
 //! current value (temporary); with it set, the permanent value too. A temporary IP also
 //! deletes the stored one, as field devices do: after a power cycle the station has no IP
 //! until a controller assigns one (an S7 assigns it temporarily at every start-up). Reset to
-//! factory erases
-//! the store and returns to the factory values; the device holds no application data in
-//! DCP, so every reset mode does exactly that.
+//! factory erases the store and returns to the factory values; the device holds no
+//! application data in DCP, so every reset mode does exactly that.
 //!
 //! An IP parameter takes effect on the interface through the [`IpInterface`] port before
 //! the Set is answered, so the answer says whether the address is really in use: one the
@@ -377,13 +376,10 @@ impl<S: PermanentStore, I: IpInterface> DcpResponder<S, I> {
         change: impl Fn(&mut StationParameters),
     ) -> BlockError {
         if permanent {
-            let mut stored = self.permanent.clone();
-            change(&mut stored);
-            if let Err(error) = self.store.save(&stored) {
-                tracing::warn!(%error, "cannot store the permanent station parameters");
-                return BlockError::ResourceError;
+            let error = self.store_permanent(&change);
+            if error != BlockError::NoError {
+                return error;
             }
-            self.permanent = stored;
         }
         let before = self.current.clone();
         change(&mut self.current);
@@ -400,12 +396,14 @@ impl<S: PermanentStore, I: IpInterface> DcpResponder<S, I> {
         if !self.apply_ip(&ip) {
             return BlockError::SetNotPossible;
         }
-        let error = match permanent {
-            true => self.assign(true, outcome, |p| p.ip = ip),
-            false => match self.forget_permanent_ip() {
-                BlockError::NoError => self.assign(false, outcome, |p| p.ip = ip),
-                error => error,
-            },
+        // A temporary IP deletes the stored one first.
+        let error = match permanent || !self.permanent.ip.is_set() {
+            true => BlockError::NoError,
+            false => self.store_permanent(|p| p.ip = IpParameter::UNSET),
+        };
+        let error = match error {
+            BlockError::NoError => self.assign(permanent, outcome, |p| p.ip = ip),
+            error => error,
         };
         if error != BlockError::NoError && ip != previous {
             self.apply_ip(&previous);
@@ -413,15 +411,12 @@ impl<S: PermanentStore, I: IpInterface> DcpResponder<S, I> {
         error
     }
 
-    /// Deletes the stored IP (a temporary Set IP does); the rest of the store stays.
-    fn forget_permanent_ip(&mut self) -> BlockError {
-        if !self.permanent.ip.is_set() {
-            return BlockError::NoError;
-        }
+    /// Applies `change` to the stored parameters; a failing store leaves them as they were.
+    fn store_permanent(&mut self, change: impl Fn(&mut StationParameters)) -> BlockError {
         let mut stored = self.permanent.clone();
-        stored.ip = IpParameter::UNSET;
+        change(&mut stored);
         if let Err(error) = self.store.save(&stored) {
-            tracing::warn!(%error, "cannot delete the permanent IP for a temporary one");
+            tracing::warn!(%error, "cannot store the permanent station parameters");
             return BlockError::ResourceError;
         }
         self.permanent = stored;
