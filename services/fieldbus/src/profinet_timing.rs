@@ -145,13 +145,25 @@ enum Quantity {
 /// The figures of `samples` (sorted in place); `None` when there are none.
 fn figures(samples: &mut [u64]) -> Option<Figures> {
     samples.sort_unstable();
-    let last = samples.len().checked_sub(1)?;
-    let at = |q: f64| samples[((last as f64) * q).round() as usize];
     Some(Figures {
-        p50: at(0.5),
-        p99: at(0.99),
-        max: samples[last],
+        p50: nearest_rank(samples, 0.5)?,
+        p99: nearest_rank(samples, 0.99)?,
+        max: *samples.last()?,
     })
+}
+
+/// The value at quantile `q` (0..=1) of `sorted` by nearest rank: the smallest sample such
+/// that at least `q` of all samples are at or below it; `None` without samples. The rule
+/// of `rc bench` (`Distribution::quantile` in `src/bench/stats.rs`), so that the device's
+/// figures and the benchmark's compare.
+fn nearest_rank(sorted: &[u64], q: f64) -> Option<u64> {
+    let n = sorted.len();
+    if n == 0 {
+        return None;
+    }
+    // Clamped to 1..=n, so the cast cannot truncate.
+    let rank = (q.clamp(0.0, 1.0) * n as f64).ceil().clamp(1.0, n as f64) as usize;
+    Some(sorted[rank - 1])
 }
 
 #[cfg(test)]
@@ -171,8 +183,9 @@ mod tests {
         let summary = timing.summary().unwrap();
         assert_eq!(summary.requests, 2);
         assert_eq!(summary.processing.max, 300);
-        assert_eq!(summary.processing.p50, 300);
-        assert_eq!(summary.cycle_wait.p50, 3_800);
+        // Nearest rank: the median of two samples is the smaller one.
+        assert_eq!(summary.processing.p50, 200);
+        assert_eq!(summary.cycle_wait.p50, 3_700);
         assert_eq!(summary.cycle_wait.max, 3_800);
         assert_eq!(timing.summary(), None);
     }
@@ -208,13 +221,36 @@ mod tests {
         assert_eq!((summary.requests, summary.dropped), (CAPACITY, 20));
     }
 
+    #[test]
+    fn the_percentiles_are_by_nearest_rank() {
+        // Rounding the index (samples[round((n - 1) q)]) would give 501 as p50 of 1..=1000
+        // and the larger of two samples as their p50.
+        let mut samples: Vec<u64> = (1..=1000).rev().collect();
+        let figures = figures(&mut samples).unwrap();
+        assert_eq!((figures.p50, figures.p99, figures.max), (500, 990, 1000));
+        let figures = super::figures(&mut [7, 3]).unwrap();
+        assert_eq!((figures.p50, figures.p99, figures.max), (3, 7, 7));
+        let figures = super::figures(&mut [4]).unwrap();
+        assert_eq!((figures.p50, figures.p99, figures.max), (4, 4, 4));
+        assert_eq!(super::figures(&mut []), None);
+    }
+
     proptest! {
         #[test]
-        fn the_figures_are_ordered(samples in proptest::collection::vec(0u64..1_000_000, 1..200)) {
+        fn the_figures_are_ordered_nearest_ranks(
+            samples in proptest::collection::vec(0u64..1_000_000, 1..200),
+        ) {
             let mut sorted = samples.clone();
             let figures = figures(&mut sorted).unwrap();
             prop_assert!(figures.p50 <= figures.p99 && figures.p99 <= figures.max);
             prop_assert_eq!(figures.max, *samples.iter().max().unwrap());
+            // At least q of the samples are at or below the value, fewer below it.
+            let n = samples.len() as f64;
+            for (q, value) in [(0.5, figures.p50), (0.99, figures.p99)] {
+                let at_or_below = samples.iter().filter(|&&s| s <= value).count() as f64;
+                let below = samples.iter().filter(|&&s| s < value).count() as f64;
+                prop_assert!(at_or_below >= q * n && below < q * n);
+            }
         }
     }
 }

@@ -82,6 +82,9 @@ pub struct ProfinetTransport {
     connected: bool,
     /// The interpreter's answer event, polled with the device's sockets.
     reply_wake: Listener<Ipc>,
+    /// The device's poll found `reply_wake` readable: an answer (or handover notice) is
+    /// to be taken. True at the start, for an answer published before the poll began.
+    reply_pending: bool,
     timing: ReplyTiming,
     // Declared last: the ports above are dropped before their node.
     bus: Bus,
@@ -132,6 +135,7 @@ impl ProfinetTransport {
             connection: 0,
             connected: false,
             reply_wake,
+            reply_pending: true,
             timing: ReplyTiming::default(),
             bus,
         })
@@ -144,7 +148,9 @@ impl ProfinetTransport {
         while !shutdown.load(Ordering::Relaxed) {
             shared_types::supervision::beat();
             health.beat()?;
-            self.take_reply()?;
+            if self.reply_pending {
+                self.take_reply()?;
+            }
             let station_problem = RobotHeader::decode(&self.input[..self.input_len])
                 .is_ok_and(|header| header.status & status_bit::ERROR_PENDING != 0);
             let mut failure = None;
@@ -160,7 +166,8 @@ impl ProfinetTransport {
             let wake = unsafe {
                 BorrowedFd::borrow_raw(self.reply_wake.file_descriptor().native_handle())
             };
-            self.device
+            self.reply_pending = self
+                .device
                 .poll(
                     POLL_INTERVAL,
                     Some(wake),
@@ -221,7 +228,9 @@ impl ProfinetTransport {
         Ok(())
     }
 
-    /// Takes the interpreter's newest answer (or its handover notice) into the input data.
+    /// Takes the interpreter's newest answer (or its handover notice) into the input data;
+    /// called when the device's poll found the answer event readable, as the interpreter
+    /// publishes each answer before it signals the event.
     fn take_reply(&mut self) -> Result<(), FieldbusError> {
         // The wake-ups only end the device's wait (the answer itself is the newest
         // sample); drained without blocking, so that the descriptor is quiet until the

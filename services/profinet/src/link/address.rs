@@ -10,10 +10,11 @@
 
 use std::ffi::CString;
 use std::io;
-use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+use std::os::fd::{AsRawFd, OwnedFd};
 use std::time::Duration;
 
 use super::netlink::{self, InterfaceAddress, Reply};
+use super::sys;
 use crate::dcp::station::{IpInterface, IpParameter};
 
 /// Longest wait for the kernel's answer.
@@ -82,11 +83,7 @@ impl InterfaceAddresses {
     fn index(&self) -> Result<u32, AddressError> {
         let name = CString::new(self.interface.as_str())
             .map_err(|_| self.failed("look-up", io::ErrorKind::InvalidInput.into()))?;
-        // SAFETY: name is a valid NUL-terminated string.
-        match unsafe { libc::if_nametoindex(name.as_ptr()) } {
-            0 => Err(self.failed("look-up", io::Error::last_os_error())),
-            index => Ok(index),
-        }
+        sys::interface_index(&name).map_err(|e| self.failed("look-up", e))
     }
 
     fn next_seq(&mut self) -> u32 {
@@ -206,19 +203,8 @@ struct Netlink {
 
 impl Netlink {
     fn open() -> io::Result<Self> {
-        // SAFETY: plain socket creation; the result is checked.
-        let raw = unsafe {
-            libc::socket(
-                libc::AF_NETLINK,
-                libc::SOCK_RAW | libc::SOCK_CLOEXEC,
-                libc::NETLINK_ROUTE,
-            )
-        };
-        if raw < 0 {
-            return Err(io::Error::last_os_error());
-        }
-        // SAFETY: raw is a fresh descriptor owned by nobody else.
-        let fd = unsafe { OwnedFd::from_raw_fd(raw) };
+        // Blocking, with a receive timeout: a request waits for its acknowledgement.
+        let fd = sys::route_socket(0)?;
         let timeout = libc::timeval {
             tv_sec: libc::time_t::try_from(REPLY_TIMEOUT.as_secs()).unwrap_or(1),
             tv_usec: 0,

@@ -12,7 +12,7 @@
 
 use std::io;
 use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
-use std::os::fd::{AsFd, AsRawFd, BorrowedFd};
+use std::os::fd::{AsFd, AsRawFd, BorrowedFd, RawFd};
 use std::time::{Duration, Instant};
 
 use pnio::rpc::PNIO_UDP_PORT;
@@ -75,6 +75,24 @@ pub enum SessionEnd {
     Ar(ArEnd),
     /// The PLC's frames stopped or stayed invalid: as a lifesign timeout.
     Consumer(Expiry),
+}
+
+/// One reading of the clock, in the two forms the parts of the device keep time in.
+#[derive(Debug, Clone, Copy)]
+struct ClockReading {
+    /// For the DCP response delays and the alarm channel.
+    instant: Instant,
+    /// Since the device's epoch, for the CM and the cyclic exchange.
+    since_epoch: Duration,
+}
+
+/// Which of the descriptors a device poll waits on have something to read.
+#[derive(Debug, Clone, Copy)]
+struct Readiness {
+    raw: bool,
+    udp: bool,
+    link: bool,
+    wake: bool,
 }
 
 /// The running cyclic exchange of the IO AR.
@@ -153,7 +171,9 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
     /// caller's, say the interpreter's answer event) is readable: sends the input frame
     /// when due with `input` (the robot→PLC telegram; StationProblemIndicator cleared and
     /// the diagnosis alarm raised when `station_problem`, the robot's error), answers DCP,
-    /// CM and alarm acknowledgements, and hands what happens to `on_event`.
+    /// CM and alarm acknowledgements, and hands what happens to `on_event`. Returns
+    /// whether `wake` became readable (false without one), so that the caller reads it
+    /// only then.
     pub fn poll(
         &mut self,
         max_wait: Duration,
@@ -161,30 +181,47 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
         input: &[u8],
         station_problem: bool,
         mut on_event: impl FnMut(DeviceEvent<'_>),
-    ) -> Result<(), IoDeviceError> {
-        let now = self.epoch.elapsed();
+    ) -> Result<bool, IoDeviceError> {
+        // One reading for all the work before the wait: that work takes microseconds, so a
+        // deadline judged from this reading is met at most that much later (the wait is
+        // computed from it too), never earlier.
+        let before_wait = self.read_clock();
         self.cm.set_robot_error(station_problem);
-        if self.provide(now, input, station_problem)? {
+        if self.provide(before_wait.since_epoch, input, station_problem)? {
             on_event(DeviceEvent::InputSent);
         }
-        self.supervise(now, &mut on_event)?;
-        self.raise_alarms(station_problem, &mut on_event)?;
-        let output = self.cm.poll(now);
-        self.apply(output, &mut on_event)?;
-        self.dcp.send_due(Instant::now())?;
+        self.supervise(before_wait.since_epoch, &mut on_event)?;
+        self.raise_alarms(station_problem, before_wait, &mut on_event)?;
+        let output = self.cm.poll(before_wait.since_epoch);
+        self.apply(output, before_wait, &mut on_event)?;
+        self.dcp.send_due(before_wait.instant)?;
 
-        let wait = self.wait(now, max_wait);
-        let (raw_ready, udp_ready, link_changed) = self.ready(wait, wake)?;
-        if link_changed && self.link_monitor.changed()? {
+        let wait = self.wait(before_wait, max_wait);
+        let ready = self.ready(wait, wake)?;
+        if ready.link && self.link_monitor.changed()? {
             self.refresh_port_link();
         }
-        if raw_ready {
-            self.receive_frames(&mut on_event)?;
+        if ready.raw || ready.udp {
+            // Read again: the first reading is older by the wait, and frames stamped with
+            // it would bring the consumer's watchdog forward. One reading serves all that
+            // arrived, as the batch takes microseconds against a watchdog of cycles.
+            let arrived = self.read_clock();
+            if ready.raw {
+                self.receive_frames(arrived, &mut on_event)?;
+            }
+            if ready.udp {
+                self.receive_datagrams(arrived, &mut on_event)?;
+            }
         }
-        if udp_ready {
-            self.receive_datagrams(&mut on_event)?;
+        Ok(ready.wake)
+    }
+
+    fn read_clock(&self) -> ClockReading {
+        let instant = Instant::now();
+        ClockReading {
+            instant,
+            since_epoch: instant.saturating_duration_since(self.epoch),
         }
-        Ok(())
     }
 
     /// Sends the input frame when it is due; true when one went out.
@@ -220,24 +257,25 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
     fn raise_alarms(
         &mut self,
         robot_error: bool,
+        now: ClockReading,
         on_event: &mut impl FnMut(DeviceEvent<'_>),
     ) -> Result<(), IoDeviceError> {
         let in_data_exchange = self.cm.in_data_exchange();
         let Some(alarms) = self.exchange.as_mut().and_then(|e| e.alarms.as_mut()) else {
             return Ok(());
         };
-        let now = Instant::now();
-        let mut outputs = alarms.on_tick(now);
+        let mut outputs = alarms.on_tick(now.instant);
         if in_data_exchange {
-            outputs.extend(alarms.robot_error(robot_error, now));
+            outputs.extend(alarms.robot_error(robot_error, now.instant));
         }
-        self.apply_alarms(outputs, on_event)
+        self.apply_alarms(outputs, now, on_event)
     }
 
     /// Sends the alarm frames and ends the AR when the alarm channel failed.
     fn apply_alarms(
         &mut self,
         outputs: Vec<AlarmOutput>,
+        now: ClockReading,
         on_event: &mut impl FnMut(DeviceEvent<'_>),
     ) -> Result<(), IoDeviceError> {
         for output in outputs {
@@ -260,7 +298,7 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
                         }
                     }
                     let ended = self.cm.abort();
-                    self.apply(ended, on_event)?;
+                    self.apply(ended, now, on_event)?;
                 }
             }
         }
@@ -307,86 +345,50 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
         Ok(())
     }
 
-    /// How long to wait for traffic: until the next input frame, the consumer's deadline
-    /// or a delayed DCP reply, at most `max_wait`.
-    fn wait(&self, now: Duration, max_wait: Duration) -> Duration {
-        let mut wait = max_wait;
-        if let Some(exchange) = &self.exchange {
-            wait = wait.min(exchange.provider.due().saturating_sub(now));
-            if let Some(deadline) = exchange.consumer.deadline() {
-                wait = wait.min(deadline.saturating_sub(now));
-            }
-            if let Some(deadline) = exchange.alarms.as_ref().and_then(DiagnosisAlarms::deadline) {
-                wait = wait.min(deadline.saturating_duration_since(Instant::now()));
-            }
-        }
-        if let Some(due) = self.dcp.next_due() {
-            wait = wait.min(due.saturating_duration_since(Instant::now()));
-        }
-        wait
+    /// How long to wait for traffic: until the next input frame, the consumer's deadline,
+    /// an alarm's retry or a delayed DCP reply, at most `max_wait`.
+    fn wait(&self, now: ClockReading, max_wait: Duration) -> Duration {
+        let since_epoch = |instant: Instant| instant.saturating_duration_since(self.epoch);
+        let exchange = self.exchange.as_ref();
+        let deadlines = [
+            exchange.map(|e| e.provider.due()),
+            exchange.and_then(|e| e.consumer.deadline()),
+            exchange
+                .and_then(|e| e.alarms.as_ref())
+                .and_then(DiagnosisAlarms::deadline)
+                .map(since_epoch),
+            self.dcp.next_due().map(since_epoch),
+        ];
+        wait_until_earliest(now.since_epoch, max_wait, deadlines.into_iter().flatten())
     }
 
-    /// Waits up to `wait` for the raw or the UDP socket, the link monitor, or `wake`;
-    /// which of the raw socket, the UDP socket and the link monitor have something to read.
+    /// Waits up to `wait` for the raw or the UDP socket, the link monitor, or `wake`.
     fn ready(
         &self,
         wait: Duration,
         wake: Option<BorrowedFd<'_>>,
-    ) -> Result<(bool, bool, bool), IoDeviceError> {
-        let mut fds = [
-            libc::pollfd {
-                fd: self.dcp.socket().as_fd().as_raw_fd(),
-                events: libc::POLLIN,
-                revents: 0,
-            },
-            libc::pollfd {
-                fd: self.udp.as_raw_fd(),
-                events: libc::POLLIN,
-                revents: 0,
-            },
-            libc::pollfd {
-                fd: self.link_monitor.as_fd().as_raw_fd(),
-                events: libc::POLLIN,
-                revents: 0,
-            },
-            // A negative descriptor is ignored by ppoll(2).
-            libc::pollfd {
-                fd: wake.map_or(-1, |fd| fd.as_raw_fd()),
-                events: libc::POLLIN,
-                revents: 0,
-            },
-        ];
-        // ppoll(2) rather than poll(2): a frame due in 0.7 ms must not wait 1 ms.
-        let timeout = libc::timespec {
-            tv_sec: libc::time_t::try_from(wait.as_secs()).unwrap_or(libc::time_t::MAX),
-            tv_nsec: libc::c_long::from(wait.subsec_nanos() as i32),
-        };
-        // SAFETY: `fds` is a valid array of four pollfd and `timeout` a valid timespec,
-        // both outliving the call; no signal mask is given.
-        let ready = unsafe {
-            libc::ppoll(
-                fds.as_mut_ptr(),
-                fds.len() as libc::nfds_t,
-                &timeout,
-                std::ptr::null(),
-            )
-        };
-        if ready < 0 {
-            let error = io::Error::last_os_error();
-            if error.kind() == io::ErrorKind::Interrupted {
-                return Ok((false, false, false));
-            }
-            return Err(IoDeviceError::Poll(error));
-        }
-        Ok((
-            fds[0].revents != 0,
-            fds[1].revents != 0,
-            fds[2].revents != 0,
-        ))
+    ) -> Result<Readiness, IoDeviceError> {
+        let [raw, udp, link, wake] = wait_readable(
+            [
+                self.dcp.socket().as_fd().as_raw_fd(),
+                self.udp.as_raw_fd(),
+                self.link_monitor.as_fd().as_raw_fd(),
+                wake.map_or(-1, |fd| fd.as_raw_fd()),
+            ],
+            wait,
+        )
+        .map_err(IoDeviceError::Poll)?;
+        Ok(Readiness {
+            raw,
+            udp,
+            link,
+            wake,
+        })
     }
 
     fn receive_frames(
         &mut self,
+        now: ClockReading,
         on_event: &mut impl FnMut(DeviceEvent<'_>),
     ) -> Result<(), IoDeviceError> {
         while let Some(len) = self
@@ -418,9 +420,10 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
                     let Ok((ethernet, rt)) = RtFrame::parse(frame) else {
                         continue;
                     };
-                    let now = self.epoch.elapsed();
                     if let Consumed::Data(data) =
-                        exchange.consumer.on_frame(ethernet.source, &rt, now)
+                        exchange
+                            .consumer
+                            .on_frame(ethernet.source, &rt, now.since_epoch)
                     {
                         on_event(DeviceEvent::Output(data));
                     }
@@ -430,8 +433,8 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
                     else {
                         continue;
                     };
-                    let outputs = alarms.on_frame(&self.received[..len], Instant::now());
-                    self.apply_alarms(outputs, on_event)?;
+                    let outputs = alarms.on_frame(&self.received[..len], now.instant);
+                    self.apply_alarms(outputs, now, on_event)?;
                 }
                 _ => {}
             }
@@ -441,6 +444,7 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
 
     fn receive_datagrams(
         &mut self,
+        now: ClockReading,
         on_event: &mut impl FnMut(DeviceEvent<'_>),
     ) -> Result<(), IoDeviceError> {
         loop {
@@ -450,9 +454,11 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
                 Err(error) if error.kind() == io::ErrorKind::Interrupted => continue,
                 Err(error) => return Err(IoDeviceError::Udp(error)),
             };
-            let now = self.epoch.elapsed();
-            match self.cm.on_datagram(&self.datagram[..len], from, now) {
-                Ok(output) => self.apply(output, on_event)?,
+            match self
+                .cm
+                .on_datagram(&self.datagram[..len], from, now.since_epoch)
+            {
+                Ok(output) => self.apply(output, now, on_event)?,
                 Err(error) => tracing::debug!(%error, %from, "PNIO-CM datagram ignored"),
             }
         }
@@ -473,6 +479,7 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
     fn apply(
         &mut self,
         output: CmOutput,
+        now: ClockReading,
         on_event: &mut impl FnMut(DeviceEvent<'_>),
     ) -> Result<(), IoDeviceError> {
         if let Some(datagram) = output.datagram {
@@ -481,14 +488,13 @@ impl<S: PermanentStore, I: IpInterface> IoDevice<S, I> {
         for event in output.events {
             match event {
                 CmEvent::Connected(exchange) => {
-                    let now = self.epoch.elapsed();
                     let input = exchange.input.config();
                     let output = exchange.output.config();
                     let started = Provider::new(
                         &input,
                         exchange.controller_mac,
                         self.dcp.socket().mac(),
-                        now,
+                        now.since_epoch,
                     )
                     .map(|provider| Exchange {
                         provider,
@@ -582,9 +588,98 @@ fn log_port_link(interface: &str, link: PortLink) {
     );
 }
 
+/// How long a pass at `now` may wait: until the earliest of `deadlines` (a past one: not
+/// at all), at most `max_wait`.
+fn wait_until_earliest(
+    now: Duration,
+    max_wait: Duration,
+    deadlines: impl IntoIterator<Item = Duration>,
+) -> Duration {
+    deadlines.into_iter().fold(max_wait, |wait, deadline| {
+        wait.min(deadline.saturating_sub(now))
+    })
+}
+
+/// Waits up to `wait` until one of `fds` is readable (a negative one is ignored); which
+/// are. A signal ends the wait early with none readable.
+fn wait_readable<const N: usize>(fds: [RawFd; N], wait: Duration) -> io::Result<[bool; N]> {
+    let mut polled = fds.map(|fd| libc::pollfd {
+        fd,
+        events: libc::POLLIN,
+        revents: 0,
+    });
+    // ppoll(2) rather than poll(2): a frame due in 0.7 ms must not wait 1 ms.
+    let timeout = libc::timespec {
+        tv_sec: libc::time_t::try_from(wait.as_secs()).unwrap_or(libc::time_t::MAX),
+        tv_nsec: libc::c_long::from(wait.subsec_nanos() as i32),
+    };
+    // SAFETY: `polled` is a valid array of N pollfd and `timeout` a valid timespec, both
+    // outliving the call; no signal mask is given.
+    let ready = unsafe {
+        libc::ppoll(
+            polled.as_mut_ptr(),
+            N as libc::nfds_t,
+            &timeout,
+            std::ptr::null(),
+        )
+    };
+    if ready < 0 {
+        let error = io::Error::last_os_error();
+        if error.kind() == io::ErrorKind::Interrupted {
+            return Ok([false; N]);
+        }
+        return Err(error);
+    }
+    Ok(polled.map(|fd| fd.revents != 0))
+}
+
 /// The exchange, or none (logged) when its CR cannot be served.
 fn started_or_log(started: Result<Exchange, CyclicError>) -> Option<Exchange> {
     started
         .inspect_err(|error| tracing::warn!(%error, "cyclic exchange not started"))
         .ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+    use std::os::unix::net::UnixStream;
+
+    #[test]
+    fn readiness_is_told_per_descriptor_and_a_negative_one_is_ignored() {
+        let (quiet, _quiet_peer) = UnixStream::pair().unwrap();
+        let (woken, mut waker) = UnixStream::pair().unwrap();
+        waker.write_all(b"!").unwrap();
+        let ready = wait_readable(
+            [quiet.as_raw_fd(), -1, woken.as_raw_fd()],
+            Duration::from_secs(1),
+        )
+        .unwrap();
+        assert_eq!(ready, [false, false, true]);
+    }
+
+    #[test]
+    fn nothing_readable_waits_the_time_given() {
+        let (quiet, _quiet_peer) = UnixStream::pair().unwrap();
+        let started = Instant::now();
+        let ready = wait_readable([quiet.as_raw_fd()], Duration::from_millis(20)).unwrap();
+        assert_eq!(ready, [false]);
+        assert!(started.elapsed() >= Duration::from_millis(20));
+    }
+
+    #[test]
+    fn the_wait_ends_at_the_earliest_deadline_and_a_past_one_waits_not() {
+        let ms = Duration::from_millis;
+        assert_eq!(wait_until_earliest(ms(100), ms(5), []), ms(5));
+        assert_eq!(
+            wait_until_earliest(ms(100), ms(5), [ms(103), ms(102)]),
+            ms(2)
+        );
+        assert_eq!(wait_until_earliest(ms(100), ms(5), [ms(110)]), ms(5));
+        assert_eq!(
+            wait_until_earliest(ms(100), ms(5), [ms(102), ms(99)]),
+            ms(0)
+        );
+    }
 }

@@ -4,7 +4,9 @@
 //! needs no privilege.
 
 use std::io;
-use std::os::fd::{AsFd, AsRawFd, BorrowedFd, FromRawFd, OwnedFd};
+use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd};
+
+use super::sys;
 
 /// The multicast group of link changes (linux/rtnetlink.h).
 const RTMGRP_LINK: u32 = 1;
@@ -27,19 +29,8 @@ pub struct LinkMonitor {
 impl LinkMonitor {
     /// Opens the socket and joins the link group.
     pub fn open() -> Result<Self, LinkMonitorError> {
-        // SAFETY: plain socket creation; the result is checked.
-        let raw = unsafe {
-            libc::socket(
-                libc::AF_NETLINK,
-                libc::SOCK_RAW | libc::SOCK_CLOEXEC | libc::SOCK_NONBLOCK,
-                libc::NETLINK_ROUTE,
-            )
-        };
-        if raw < 0 {
-            return Err(io::Error::last_os_error().into());
-        }
-        // SAFETY: raw is a fresh descriptor owned by nobody else.
-        let fd = unsafe { OwnedFd::from_raw_fd(raw) };
+        // Non-blocking: it is read only after poll(2) said so, until it is empty.
+        let fd = sys::route_socket(libc::SOCK_NONBLOCK)?;
         // SAFETY: sockaddr_nl is plain data; all zeros is a valid value.
         let mut address: libc::sockaddr_nl = unsafe { std::mem::zeroed() };
         address.nl_family = libc::AF_NETLINK as libc::sa_family_t;

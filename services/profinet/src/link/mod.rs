@@ -13,4 +13,5 @@ pub mod link_monitor;
 pub mod netlink;
 pub mod port_link;
 pub mod raw_socket;
+mod sys;
 pub mod veth;

@@ -9,6 +9,7 @@ use std::io;
 use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
 use std::time::Duration;
 
+use super::sys;
 use crate::ethernet::MacAddress;
 
 /// Opening or using the raw socket failed.
@@ -50,14 +51,11 @@ impl RawSocket {
     pub fn open(interface: &str) -> Result<Self, RawSocketError> {
         let c_name = CString::new(interface)
             .map_err(|_| RawSocketError::InterfaceName(interface.to_owned()))?;
-        // SAFETY: c_name is a valid NUL-terminated string.
-        let index = unsafe { libc::if_nametoindex(c_name.as_ptr()) };
-        if index == 0 {
-            return Err(RawSocketError::NoInterface {
+        let index =
+            sys::interface_index(&c_name).map_err(|source| RawSocketError::NoInterface {
                 name: interface.to_owned(),
-                source: io::Error::last_os_error(),
-            });
-        }
+                source,
+            })?;
         let index = i32::try_from(index).map_err(|_| RawSocketError::NoInterface {
             name: interface.to_owned(),
             source: io::Error::from(io::ErrorKind::InvalidInput),
