@@ -6,6 +6,13 @@
 //! it, the deceleration is released toward 0 at rate `j`, which ends at `ṡ = 0` and `s̈ = 0`
 //! together. Phase switches inside a tick are computed exactly, so the sampled acceleration
 //! changes by at most `j·dt` per tick.
+//!
+//! The limits may change from tick to tick, and the jerk range need not be symmetric (a
+//! stop on the time scale of a profile, [`scale_brake`](crate::scale_brake), has the
+//! profile's own jerk on top of its own): the deceleration builds up at the lowest jerk
+//! allowed, is released at the highest, a deceleration beyond a limit that shrank is brought
+//! back at the highest, and otherwise the jerk nearest 0 is applied. The speed never turns
+//! negative.
 
 /// Path speed below which the path counts as standing still (1/s).
 const REST: f64 = 1e-12;
@@ -24,7 +31,11 @@ pub struct PathBrake {
     /// Path acceleration `s̈`.
     pub a: f64,
     a_max: f64,
-    j_max: f64,
+    /// The jerk range, `jerk_low ≤ jerk_high`.
+    jerk_low: f64,
+    jerk_high: f64,
+    /// The jerk the release plans with, within the range.
+    release_jerk: f64,
 }
 
 impl PathBrake {
@@ -36,13 +47,30 @@ impl PathBrake {
             v,
             a,
             a_max,
-            j_max,
+            jerk_low: -j_max,
+            jerk_high: j_max,
+            release_jerk: j_max,
         }
     }
 
     /// Whether the path stands still (then `v` and `a` are exactly 0).
     pub fn is_stopped(&self) -> bool {
         self.v == 0.0 && self.a == 0.0
+    }
+
+    /// Changes the limits for the following ticks: the largest deceleration `a_max`
+    /// (non-negative), the range of the jerk (an empty range counts as its middle) and the
+    /// jerk the release plans with (less than `jerk_high` where the range narrows as the
+    /// speed falls: a release must be able to end).
+    pub fn set_limits(&mut self, a_max: f64, jerk_low: f64, jerk_high: f64, release_jerk: f64) {
+        self.a_max = a_max.max(0.0);
+        let middle = 0.5 * (jerk_low + jerk_high);
+        (self.jerk_low, self.jerk_high) = if jerk_low <= jerk_high {
+            (jerk_low, jerk_high)
+        } else {
+            (middle, middle)
+        };
+        self.release_jerk = release_jerk.clamp(self.jerk_low, self.jerk_high);
     }
 
     /// Advances the brake by `dt` seconds.
@@ -68,27 +96,60 @@ impl PathBrake {
 
     /// The jerk to apply now and how long until the next switch.
     fn phase(&self) -> (f64, f64) {
-        let (v, a, j) = (self.v, self.a, self.j_max);
-        let release_speed = a * a / (2.0 * j);
-        if a < 0.0 && v <= release_speed * (1.0 + SWITCH_TOLERANCE) {
-            // Release: s̈ → 0. If the speed is too low already, it hits 0 first.
-            let to_zero_acceleration = -a / j;
-            let disc = a * a - 2.0 * j * v;
-            let to_zero_speed = if disc >= 0.0 {
-                (-a - disc.sqrt()) / j
+        let (v, a, a_max) = (self.v, self.a, self.a_max);
+        let (low, high, release) = (self.jerk_low, self.jerk_high, self.release_jerk);
+        let release_speed = a * a / (2.0 * release);
+        let releasing = release > 0.0 && a < 0.0;
+        let (jerk, duration) = if releasing && v <= release_speed * (1.0 + SWITCH_TOLERANCE) {
+            // Release: s̈ → 0, ending with the speed. Below the curve (the limits shrank
+            // since it began) the jerk that ends both together, as far as `high` allows.
+            let jerk = (a * a / (2.0 * v)).clamp(release, high.max(release));
+            (jerk, -a / jerk)
+        } else if a > -a_max && low < 0.0 {
+            // Build up deceleration until the limit or the release curve
+            // v = s̈²/(2·release), which the jerk `low` meets at s̈ = x with
+            // x² = (a²/(2·low) − v)/(1/(2·low) − 1/(2·release)).
+            let to_limit = (a + a_max) / -low;
+            let to_release = if release > 0.0 {
+                let x = -((a * a / (2.0 * low) - v) / (0.5 / low - 0.5 / release)).sqrt();
+                (x - a) / low
             } else {
                 f64::INFINITY
             };
-            (j, to_zero_acceleration.min(to_zero_speed))
-        } else if a > -self.a_max {
-            // Build up deceleration until the limit or the release curve v = s̈²/(2j).
-            let to_limit = (a + self.a_max) / j;
-            let to_release = (a + (0.5 * a * a + j * v).sqrt()) / j;
-            (-j, to_limit.min(to_release))
+            (low, to_limit.min(to_release))
+        } else if a < -a_max * (1.0 + SWITCH_TOLERANCE) && high > 0.0 {
+            // Beyond a limit that shrank: back to it. Under the jerk `high`, v − s̈²/(2·high)
+            // stays constant, so the release curve (of a jerk not above `high`) is not
+            // crossed on the way.
+            (high, (-a_max - a) / high)
         } else {
-            // Full deceleration until the release curve.
-            (0.0, (v - release_speed) / -a)
+            // Hold with the jerk nearest 0 (full deceleration until the release curve).
+            let hold = 0.0f64.clamp(low, high);
+            let until_release = if hold == 0.0 && releasing {
+                (v - release_speed) / -a
+            } else {
+                f64::INFINITY
+            };
+            (hold, until_release)
+        };
+        (jerk, duration.min(self.time_to_rest(jerk)))
+    }
+
+    /// Time until the speed reaches 0 under `jerk`, infinite if it does not.
+    fn time_to_rest(&self, jerk: f64) -> f64 {
+        let (v, a) = (self.v, self.a);
+        if jerk == 0.0 {
+            return if a < 0.0 { v / -a } else { f64::INFINITY };
         }
+        let disc = a * a - 2.0 * jerk * v;
+        if disc < 0.0 {
+            return f64::INFINITY;
+        }
+        let root = disc.sqrt();
+        [(-a - root) / jerk, (-a + root) / jerk]
+            .into_iter()
+            .filter(|t| *t > 0.0)
+            .fold(f64::INFINITY, f64::min)
     }
 
     fn integrate(&mut self, jerk: f64, t: f64) {
@@ -106,7 +167,7 @@ mod tests {
 
     /// Brakes to rest and checks the limits on the samples; returns (ticks, distance).
     fn brake_to_rest(mut b: PathBrake, dt: f64) -> (usize, f64) {
-        let (a_max, j_max) = (b.a_max, b.j_max);
+        let (a_max, j_max) = (b.a_max, b.jerk_high);
         let start = b.s;
         let start_a = b.a;
         let mut prev = b;
@@ -162,7 +223,52 @@ mod tests {
         assert_eq!(b.s, 1.0);
     }
 
+    #[test]
+    fn a_deceleration_beyond_a_shrunk_limit_returns_to_it_at_the_jerk_limit() {
+        let mut b = PathBrake::new(-1e9, 10.0, -2.0, 2.0, 10.0);
+        b.set_limits(1.0, -10.0, 10.0, 10.0);
+        b.advance(0.05);
+        assert!((b.a + 1.5).abs() < 1e-12, "{b:?}");
+        b.advance(0.1);
+        assert!((b.a + 1.0).abs() < 1e-12, "{b:?}");
+    }
+
+    #[test]
+    fn a_release_below_its_curve_ends_with_the_speed_where_the_range_allows() {
+        // v = 0.04 < a²/(2·release) = 0.05: the release needs jerk a²/(2v) = 12.5 ≤ 20.
+        let mut b = PathBrake::new(0.0, 0.04, -1.0, 1.0, 10.0);
+        b.set_limits(1.0, -10.0, 20.0, 10.0);
+        b.advance(1.0);
+        assert!(b.is_stopped());
+        // s̈ falls linearly to 0 over t = 2v/|a| = 0.08 s, the speed with it: v·t/3.
+        assert!((b.s - 0.04 * 0.08 / 3.0).abs() < 1e-12, "{}", b.s);
+    }
+
     proptest! {
+        /// Limits that change every tick, with a jerk range that need not hold 0: the speed
+        /// never turns negative, the path never goes back, and the acceleration changes by
+        /// no more than the tick's range allows.
+        #[test]
+        fn changing_asymmetric_limits_are_kept_every_tick(
+            v in 0.0f64..3.0,
+            a in -2.0f64..2.0,
+            ticks in prop::collection::vec((0.5f64..3.0, -20.0f64..5.0, 5.0f64..20.0, 0.2f64..1.0), 400),
+        ) {
+            let dt = 1e-3;
+            let mut b = PathBrake::new(0.0, v, a, 2.0, 10.0);
+            for (a_max, low, high, release) in ticks {
+                let before = b;
+                b.set_limits(a_max, low, high, release * high);
+                b.advance(dt);
+                prop_assert!(b.v >= 0.0 && b.s >= before.s);
+                if !b.is_stopped() {
+                    let rate = (b.a - before.a) / dt;
+                    let slack = 1e-9 * (1.0 + low.abs().max(high.abs()));
+                    prop_assert!(rate >= low - slack && rate <= high + slack, "{rate} outside [{low}, {high}]");
+                }
+            }
+        }
+
         #[test]
         fn every_stop_keeps_the_limits_and_never_reverses(
             v in 0.0f64..5.0,

@@ -7,7 +7,8 @@
 //! inverse kinematics, or with the wrist joints interpolated: [`wrist_interpolation`]),
 //! [`topp`] (their time-optimal timing by reachability analysis, with a conic cross-check
 //! on clarabel), [`targets`] (relative targets made absolute), [`blend`] (the overlap of
-//! two moves for every BlendingMode), [`brake`] (stops on the path), [`motion`] (one tick
+//! two moves for every BlendingMode), [`brake`] (stops on the path with constant bounds), [`scale_brake`] (stops on the time scale of a
+//! time-optimal table), [`motion`] (one tick
 //! of commanded motion), [`safety_filter`] (the last guard of every point before the
 //! servo), [`queue`] (the moves of one sequence),
 //! [`sequences`] (the primary and the secondary sequence), [`events`] (paced job events),
@@ -27,6 +28,7 @@ pub mod motion;
 pub mod profile;
 pub mod queue;
 pub mod safety_filter;
+pub mod scale_brake;
 pub mod sequences;
 pub mod service;
 pub mod targets;

@@ -32,7 +32,7 @@
 //!    analysis, [`topp::reachability`]) finds the fastest `ṡ(s)` within the joint and TCP
 //!    velocity and acceleration limits at every sample (times the command's rates, the
 //!    acceleration held back by the override reserve), within the joints' and the TCP's jerk
-//!    budget, with the speed capped where constant stop bounds stop to exist (below).
+//!    budget, with the speed capped (below).
 //! 2. **Constant bounds**: one double-S profile on `s` with the tightest of
 //!    - the TCP limits of the robot (`cartesian` section) times the command's rates, divided
 //!      by the length of the path (the orientation has no Cartesian limit of its own: the
@@ -54,17 +54,15 @@
 //! `|q̇_i| ≤ v_i`, `|q̈_i| ≤ a_i` and `|q⃛_i| ≤ j_i` along the path (the table within its grid
 //! margin, see [`topp`]).
 //!
-//! **Stops and override.** A stop brakes with constant path limits ([`Timing::limits`]). For
-//! the double-S they are its own; for the table they are the constant bounds above at its
-//! speed cap `V_stop = min_i min(√(CURVATURE_SHARE·a_i/|q''_i|),
-//! ∛(THIRD_SHARE·j_i/|q'''_i|))` (of the jerk splits the one that stops in the shortest
-//! distance), which the table never exceeds, so a stop from anywhere on the table keeps the
-//! limits. A stop must also end before the end of the path, which the table reaches braking
-//! harder than those bounds: its speed is held below what they brake within
-//! [`STOP_SHARE`](topp::STOP_SHARE) of the rest of the path ([`ToppLimits::stop_braking`]).
-//! The table's override rate is the one its reserve pays for at every point:
-//! `|q'_i·ṡ·σ̇| ≤ rate_v·v_i·σ̇ ≤ r·a_i` (and the same for the TCP). The cap and the stop
-//! distance cost speed (see `rc bench motion`); speed-dependent stop bounds would win it back.
+//! **Stops and override.** A stop on the double-S brakes `s` with its constant bounds
+//! ([`Timing::limits`]). A stop on the table brakes the table's time scale within the joint
+//! and TCP limits at the current point ([`scale_brake`](crate::scale_brake)): it never goes
+//! faster than the table anywhere on the path, so it always ends on the path, at the latest
+//! where the table itself comes to rest. The table's speed is capped where constant stop
+//! bounds would stop to exist (`V_stop = min_i min(√(CURVATURE_SHARE·a_i/|q''_i|),
+//! ∛(THIRD_SHARE·j_i/|q'''_i|))`): that keeps the jerk pass's cross term `3·q''·ṡ·s̈` small
+//! (see `rc bench motion`). The table's override rate is the one its reserve pays for at
+//! every point: `|q'_i·ṡ·σ̇| ≤ rate_v·v_i·σ̇ ≤ r·a_i` (and the same for the TCP).
 
 use core::f64::consts::TAU;
 
@@ -80,6 +78,7 @@ use crate::kinematics::selection::{ConfigModes, ModeError, TurnMode};
 use crate::kinematics::turns::TurnNumbers;
 use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
 use crate::profile::{DoubleS, Profile};
+use crate::scale_brake::{COORDINATES, ScaleLimits};
 use crate::topp::{self, JerkBound, PathSamples, PathTimer, ToppLimits};
 use crate::wrist_interpolation::{WristInterpolation, WristPathError};
 
@@ -95,8 +94,6 @@ pub const SPEED_STEPS: usize = 8;
 pub const JERK_SPLITS: [f64; 4] = [0.2, 0.4, 0.6, 0.8];
 /// Share of a joint's acceleration limit the path curvature term `q''·ṡ²` may take.
 pub const CURVATURE_SHARE: f64 = 0.5;
-/// Share of the path over which the stop bounds of the candidates are compared.
-const STOP_PROBE: f64 = 0.25;
 /// Step of `s` for the central differences of the joints.
 const DIFF_STEP: f64 = 1e-3;
 /// How closely (rad) the start branch must reproduce the start joints.
@@ -430,6 +427,8 @@ pub struct LinearMove {
     target: [f64; AXES],
     /// Time scaling within the TCP and the joint limits.
     timing: Timing,
+    /// The limits a stop on the time scale of a table keeps.
+    scale_limits: ScaleLimits,
 }
 
 impl LinearMove {
@@ -483,6 +482,7 @@ impl LinearMove {
                 arm,
                 reserve,
             )?,
+            scale_limits: scale_limits(command, arm),
         }))
     }
 
@@ -494,6 +494,13 @@ impl LinearMove {
     /// The time scaling: path limits from the TCP and joint limits, profile, override rate.
     pub fn timing(&self) -> &Timing {
         &self.timing
+    }
+
+    /// The joint and TCP limits of a stop on the time scale of the move's table: the robot's
+    /// acceleration and jerk limits times the command's rates, without the override reserve
+    /// (what the reserve holds back is there for the stop).
+    pub fn scale_limits(&self) -> &ScaleLimits {
+        &self.scale_limits
     }
 
     /// The TCP pose at path position `s` (base frame).
@@ -558,6 +565,20 @@ fn path_limits(
     best.map_or(cartesian, |(_, limits)| limits)
 }
 
+/// The joints' and the TCP's acceleration and jerk limits times the command's rates.
+fn scale_limits(command: &MotionCommand, arm: &Arm<'_>) -> ScaleLimits {
+    let rate = command.acceleration_scale.max(command.deceleration_scale);
+    let mut limits = ScaleLimits {
+        acceleration: [rate * arm.tcp.acceleration; COORDINATES],
+        jerk: [command.jerk_scale * arm.tcp.jerk; COORDINATES],
+    };
+    for i in 0..AXES {
+        limits.acceleration[i] = rate * arm.joints.acceleration[i];
+        limits.jerk[i] = command.jerk_scale * arm.joints.jerk[i];
+    }
+    limits
+}
+
 /// The TCP limits times the command's rates over the path `length` (m), as path limits.
 fn cartesian_limits(command: &MotionCommand, length: f64, tcp: &TcpLimits) -> PathLimits {
     let per_length = |limit: f64, rate: f64| {
@@ -589,11 +610,7 @@ fn timing(
     reserve: f64,
 ) -> Result<Timing, LinearError> {
     let constant = Timing::plan(limits, reserve, command.duration_s);
-    let Some((table_limits, stops, override_rate)) =
-        table_limits(command, survey, length, arm, reserve)
-    else {
-        return Ok(constant?);
-    };
+    let (table_limits, override_rate) = table_limits(command, survey, length, arm, reserve);
     let fastest_constant = DoubleS::new(
         limits.velocity,
         (1.0 - reserve) * limits.acceleration,
@@ -610,31 +627,24 @@ fn timing(
         }
     };
     Ok(Timing::with_profile(
-        stops,
+        limits,
         Profile::Table(table),
         override_rate,
         command.duration_s,
     )?)
 }
 
-/// The limits of the time-optimal timing, the constant bounds for stops on its path (valid
-/// up to its speed cap) and the override rate its reserve pays for; `None` if the path has
-/// no constant stop bounds.
+/// The limits of the time-optimal timing and the override rate its reserve pays for.
 fn table_limits(
     command: &MotionCommand,
     survey: &Survey,
     length: f64,
     arm: &Arm<'_>,
     reserve: f64,
-) -> Option<(ToppLimits, PathLimits, f64)> {
+) -> (ToppLimits, f64) {
     let cartesian = cartesian_limits(command, length, arm.tcp);
     let bounds = JointBounds::new(survey, arm.joints);
     let cap = bounds.stop_speed().min(cartesian.velocity);
-    let stops = JERK_SPLITS
-        .iter()
-        .map(|&split| bounds.at(command, &cartesian, cap, split))
-        .filter(|l| l.acceleration > 0.0 && l.deceleration > 0.0 && l.jerk > 0.0)
-        .max_by(|a, b| stop_reach(a).total_cmp(&stop_reach(b)))?;
     let (rate_v, rate_a, rate_d) = (
         command.velocity_scale,
         command.acceleration_scale,
@@ -658,26 +668,15 @@ fn table_limits(
         speed_up: rate_a / rate,
         braking: rate_d / rate,
         speed_cap: cap,
-        stop_braking: stops.braking(),
-        stop_jerk: stops.jerk,
     };
     let limits = match arm.timer.jerk() {
         JerkBound::Joints => limits,
         JerkBound::Off => ToppLimits {
             speed_cap: f64::INFINITY,
-            stop_braking: f64::INFINITY,
-            stop_jerk: f64::INFINITY,
             ..limits
         },
     };
-    Some((limits, stops, override_rate))
-}
-
-/// How fast a stop with `limits` may start and still end within [`STOP_PROBE`] of the path:
-/// the table's speed towards its end is held below such speeds, so where acceleration and
-/// jerk of the stop bounds trade off, the one that brakes in a short distance is best.
-fn stop_reach(limits: &PathLimits) -> f64 {
-    topp::stop_speed(STOP_PROBE, limits.braking(), limits.jerk)
+    (limits, override_rate)
 }
 
 /// `d³q/ds³` of the samples from the differences of neighbouring `d²q/ds²`, the larger of

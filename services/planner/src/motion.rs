@@ -35,6 +35,8 @@ use crate::brake::PathBrake;
 use crate::cartesian_path;
 use crate::joint_move::{JointMove, Plan, Timing};
 use crate::linear_move::{LinearMove, LinearPlan, TcpLimits};
+use crate::profile::Profile;
+use crate::scale_brake::{COORDINATES, ScaleBrake, TableRates};
 use crate::sequences::{Cursor, Holds, Sequence, Sequences};
 
 /// Wait time (s) left that counts as none, against rounding of the tick sum.
@@ -77,6 +79,52 @@ impl Path {
             Self::Linear(m) => m.point(s, sd, sdd, previous),
         }
     }
+
+    /// The rates of the joints and the TCP along the path (|p'| is the length of lines and
+    /// arcs alike) on the unscaled profile at time `tau`, next to `previous`; the rates of
+    /// velocity and acceleration are their changes over the following `step` s (the
+    /// preceding one at the profile's end, where the profile stands).
+    pub fn table_rates(&self, tau: f64, step: f64, previous: &[f64; AXES]) -> TableRates {
+        let length = match self {
+            Self::Joint(_) => 0.0,
+            Self::Linear(m) => m.length(),
+        };
+        let profile = &self.timing().profile;
+        let at = |tau: f64| {
+            let (s, sd, sdd) = profile.eval(tau);
+            let point = self.point(s, sd, sdd, previous);
+            let mut velocity = [length * sd; COORDINATES];
+            let mut acceleration = [length * sdd; COORDINATES];
+            velocity[..AXES].copy_from_slice(&point.qd);
+            acceleration[..AXES].copy_from_slice(&point.qdd);
+            (velocity, acceleration)
+        };
+        let (velocity, acceleration) = at(tau);
+        let step = if tau + step <= profile.duration() {
+            step
+        } else {
+            -step
+        };
+        let (velocity_next, acceleration_next) = at(tau + step);
+        let rate = |now: &[f64; COORDINATES], next: &[f64; COORDINATES]| {
+            core::array::from_fn(|i| (next[i] - now[i]) / step)
+        };
+        TableRates {
+            velocity_rate: rate(&velocity, &velocity_next),
+            jerk: rate(&acceleration, &acceleration_next),
+            velocity,
+            acceleration,
+        }
+    }
+}
+
+/// How a move stops on its path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Stop {
+    /// A profile planned on constant path limits brakes `s` with them.
+    Path(PathBrake),
+    /// A time-optimal table brakes its time scale within the limits at the current point.
+    TimeScale(ScaleBrake),
 }
 
 /// What the arm is doing.
@@ -96,7 +144,7 @@ pub enum Phase {
     Braking {
         sequence: Sequence,
         plan: Path,
-        brake: PathBrake,
+        stop: Stop,
     },
     /// A WaitTime of the sequence: standing still for `left_s` more of `duration_s` s.
     Waiting {
@@ -272,11 +320,10 @@ impl Motion {
             Phase::Running(Running {
                 active, plan, tau, ..
             }) => {
-                let brake = self.path_brake(&plan, tau);
                 self.phase = Phase::Braking {
                     sequence: active.sequence,
                     plan,
-                    brake,
+                    stop: self.stop(&plan, tau),
                 };
                 Some(active.job)
             }
@@ -293,19 +340,58 @@ impl Motion {
         }
     }
 
-    /// A brake of `plan` from its state at `tau` under the current time scale.
-    fn path_brake(&self, plan: &Path, tau: f64) -> PathBrake {
+    /// A stop of `plan` from its state at `tau` under the current time scale: a table (of a
+    /// Cartesian path) brakes its time scale, a profile on constant bounds brakes `s`.
+    fn stop(&self, plan: &Path, tau: f64) -> Stop {
         let timing = plan.timing();
+        if let (Profile::Table(table), Path::Linear(m)) = (&timing.profile, plan) {
+            return Stop::TimeScale(ScaleBrake::new(
+                tau,
+                self.sigma,
+                self.sigma_rate,
+                table.duration(),
+                *m.scale_limits(),
+            ));
+        }
         let (s, sd, sdd) = timing.profile.eval(tau);
         let limits = timing.limits;
         // Same (s, ṡ, s̈) as the point last commanded, so the stop is continuous.
-        PathBrake::new(
+        Stop::Path(PathBrake::new(
             s,
             sd * self.sigma,
             sdd * self.sigma * self.sigma + sd * self.sigma_rate,
             limits.braking(),
             limits.jerk,
-        )
+        ))
+    }
+
+    /// One tick of a stop of `plan`.
+    fn brake_tick(&mut self, sequence: Sequence, plan: Path, mut stop: Stop, dt: f64) {
+        let stopped = match &mut stop {
+            Stop::Path(brake) => {
+                brake.advance(dt);
+                self.point = plan.point(brake.s, brake.v, brake.a, &self.point.q);
+                self.path_position = brake.s;
+                self.path_rate = (brake.v, brake.a);
+                brake.is_stopped()
+            }
+            Stop::TimeScale(brake) => {
+                brake.advance(dt, &plan.table_rates(brake.tau(), dt, &self.point.q));
+                self.sigma = brake.sigma();
+                self.sigma_rate = brake.sigma_rate();
+                self.place(&plan, brake.tau());
+                brake.is_stopped()
+            }
+        };
+        self.phase = if stopped {
+            Phase::Idle
+        } else {
+            Phase::Braking {
+                sequence,
+                plan,
+                stop,
+            }
+        };
     }
 
     /// Advances one tick of `dt` seconds. A standing arm starts the next move of `sequences`
@@ -349,22 +435,8 @@ impl Motion {
             Phase::Braking {
                 sequence,
                 plan,
-                mut brake,
-            } => {
-                brake.advance(dt);
-                self.point = plan.point(brake.s, brake.v, brake.a, &self.point.q);
-                self.path_position = brake.s;
-                self.path_rate = (brake.v, brake.a);
-                self.phase = if brake.is_stopped() {
-                    Phase::Idle
-                } else {
-                    Phase::Braking {
-                        sequence,
-                        plan,
-                        brake,
-                    }
-                };
-            }
+                stop,
+            } => self.brake_tick(sequence, plan, stop, dt),
             Phase::Waiting {
                 active,
                 left_s,
@@ -538,7 +610,7 @@ impl Motion {
                 Phase::Braking {
                     sequence: blend.active.sequence,
                     plan: blend.plan,
-                    brake: self.path_brake(&blend.plan, blend.tau),
+                    stop: self.stop(&blend.plan, blend.tau),
                 }
             } else {
                 Phase::Running(Running {

@@ -74,9 +74,6 @@ pub const MAX_PASSES: usize = 4;
 const MAX_ITERATIONS: u32 = 200;
 /// Relative slack on the jerk budget for the solver's tolerances.
 const JERK_TOLERANCE: f64 = 1e-3;
-/// Share of the rest of the path a stop may take: the rest pays for `ṡ²` being linear
-/// between the grid points and for a stop that starts while speeding up.
-pub const STOP_SHARE: f64 = 0.9;
 /// Smallest `|q'|` or `|p'|` counted as moving.
 const MOVING: f64 = 1e-12;
 /// Share of the jerk budget at rest a point keeps when the estimates leave none.
@@ -134,11 +131,6 @@ pub struct ToppLimits {
     pub braking: f64,
     /// Largest `ṡ` anywhere, 1/s.
     pub speed_cap: f64,
-    /// The path deceleration (1/s²) and jerk (1/s³) a stop on the path brakes with: the
-    /// speed at every point stays below what such a stop brakes within [`STOP_SHARE`] of the
-    /// rest of the path, so a stop never reaches the end (infinite: no such bound).
-    pub stop_braking: f64,
-    pub stop_jerk: f64,
 }
 
 /// Limits of 1 in every unit.
@@ -152,8 +144,6 @@ const UNIT_LIMITS: ToppLimits = ToppLimits {
     speed_up: 1.0,
     braking: 1.0,
     speed_cap: 1.0,
-    stop_braking: f64::INFINITY,
-    stop_jerk: f64::INFINITY,
 };
 
 /// Whether the path jerk is bounded.
@@ -549,10 +539,7 @@ fn speed_limits(
         let around = k.saturating_sub(1)..=(k + 1).min(INTERVALS);
         let largest =
             |f: &dyn Fn(usize) -> f64| around.clone().fold(0.0f64, |m, e| m.max(f(e).abs()));
-        let rest = STOP_SHARE * (INTERVALS - k) as f64 / INTERVALS as f64;
-        let mut v = limits
-            .speed_cap
-            .min(stop_speed(rest, limits.stop_braking, limits.stop_jerk));
+        let mut v = limits.speed_cap;
         let tcp = largest(&|e| samples.tcp_speed[e]);
         if tcp > MOVING {
             v = v.min(GRID_MARGIN * limits.tcp_velocity / tcp);
@@ -574,24 +561,6 @@ fn speed_limits(
         return Err(ToppError::NoMotion);
     }
     Ok(bound)
-}
-
-/// The largest path speed from which a stop with deceleration `a` and jerk `j` (starting at
-/// `s̈ = 0`) ends within `distance`. Such a stop's speed falls point-symmetrically about its
-/// middle, so it covers `v·T/2` in its time `T`: `T = v/a + a/j` when it reaches `a`
-/// (`v ≥ a²/j`), else `T = 2·√(v/j)`.
-pub fn stop_speed(distance: f64, a: f64, j: f64) -> f64 {
-    if !(a.is_finite() && j.is_finite()) {
-        return f64::INFINITY;
-    }
-    // v·√(v/j) = d below the speed that reaches a.
-    let short = (distance * distance * j).cbrt();
-    if short * j < a * a {
-        return short;
-    }
-    // v²/(2a) + v·a/(2j) = d.
-    let b = a * a / j;
-    0.5 * (-b + (b * b + 8.0 * a * distance).sqrt())
 }
 
 /// Fills the speed bounds ([`speed_limits`]), the scale and the tangential reach of `rows`.

@@ -1055,6 +1055,7 @@ mod random {
 
 mod linear {
     use super::*;
+    use crate::profile::Profile;
 
     /// Rig with a linear move by [`SHIFT`] and [`TURN`] from home sent as job 1; returns
     /// the start and target TCP poses.
@@ -1151,6 +1152,51 @@ mod linear {
                     - pose::isometry(start).translation.vector)
                     .norm();
         assert!(progress > 0.5 && progress < 1.0, "{progress}");
+    }
+
+    /// GroupStop at several points of a line timed by its time-optimal table: every stop
+    /// keeps the limits, jerk included, and stays on the line; none takes longer than the
+    /// rest of the table, and a stop early on the line brakes far sooner.
+    #[test]
+    fn stops_anywhere_on_a_time_optimal_line_keep_the_limits_and_the_line() {
+        for at in [10.0, 30.0, 50.0, 80.0, 90.0, 95.0, 99.0] {
+            let mut rig = Rig::new();
+            let (start, target) = started(&mut rig);
+            assert!(
+                matches!(
+                    rig.executor.motion.phase,
+                    Phase::Running(Running { plan: Path::Linear(m), .. })
+                        if matches!(m.timing().profile, Profile::Table(_))
+                ),
+                "the line is not timed by its table"
+            );
+            rig.run_until(20_000, |r| r.executor.status().active_progress > at);
+            let (stopped_at, left) = match rig.executor.motion.phase {
+                Phase::Running(Running { tau, plan, .. }) => {
+                    (rig.trace.len(), plan.timing().profile.duration() - tau)
+                }
+                phase => panic!("not running: {phase:?}"),
+            };
+            let stop = rig.command(MotionCommandKind::Stop, 3);
+            rig.step(&[stop]);
+            rig.run_until(20_000, |r| r.is_final(3));
+            let took = (rig.trace.len() - stopped_at) as f64 * DT;
+            rig.check_on_tcp_line(0, start, target);
+            rig.check_limits();
+            assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+            assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+            // Never longer than running the table out; early on, far shorter.
+            assert!(
+                took <= left + 2.0 * DT,
+                "stop at {at} %: {took} s of {left} s left"
+            );
+            if at <= 30.0 {
+                assert!(
+                    took < 0.7 * left,
+                    "stop at {at} %: {took} s of {left} s left"
+                );
+            }
+        }
     }
 
     #[test]

@@ -75,8 +75,6 @@ fn cobot() -> ToppLimits {
         speed_up: 1.0,
         braking: 1.0,
         speed_cap: 20.0,
-        stop_braking: f64::INFINITY,
-        stop_jerk: f64::INFINITY,
     }
 }
 

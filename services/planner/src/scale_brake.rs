@@ -1,0 +1,321 @@
+//! A stop on the time scale of a profile: the path is followed exactly as planned while its
+//! time scale σ (the profile advances σ seconds per second) is brought to 0, as fast as the
+//! joint and TCP limits at the current point allow.
+//!
+//! A time-optimal table ([`topp`](crate::topp)) runs at the limits the path allows at every
+//! point, so constant path bounds cannot stop it: where it is fast they would brake too
+//! weakly, and a stop near the end would have to pass it. Scaling the table's time instead
+//! never goes faster than the table at any point of the path, so a stop always ends on the
+//! path, at the latest where the table itself ends at rest.
+//!
+//! With the table's rates `q̇ₜ`, `q̈ₜ`, `q⃛ₜ` of a coordinate (a joint, or the TCP along its
+//! path) at the current profile time, the commanded rates are
+//!
+//! - `q̇ = σ·q̇ₜ`,
+//! - `q̈ = σ²·q̈ₜ + σ̇·q̇ₜ`,
+//! - `q⃛ = σ³·q⃛ₜ + σ·σ̇·(2·q̈ₜ + q̈ᵥ) + σ̈·q̇ₜ`, with `q̈ᵥ = dq̇ₜ/dτ` (equal to `q̈ₜ` where
+//!   the profile's `s̈` is the derivative of its `ṡ`; a table blends its `s̈`).
+//!
+//! Braking (`σ̇ = −d ≤ 0`), `|q̈| ≤ A` holds for `d ≤ (A + sgn(q̇ₜ)·σ²·q̈ₜ)/|q̇ₜ|` and
+//! `|q⃛| ≤ J` for `|σ̈| ≤ (J − |σ³·q⃛ₜ + σ·σ̇·(2·q̈ₜ + q̈ᵥ)|)/|q̇ₜ|`. Every tick takes the tightest
+//! of these bounds over the coordinates (each limit times [`MARGIN`], for what changes within
+//! the tick) as the deceleration and jerk limits of a [`PathBrake`] of σ: its jerk is
+//! bang-bang, so σ and σ̇ reach 0 together. While the table itself runs at full jerk there
+//! is no jerk left to brake with and σ̇ keeps its value until there is; the table's own
+//! deceleration then still brings the arm to rest at its end.
+
+use crate::brake::PathBrake;
+
+/// Coordinates the limits are kept in: the joints and the TCP along its path.
+pub const COORDINATES: usize = shared_types::ipc::AXES + 1;
+/// Share of every limit a stop plans with: the rest pays for the change of the table's
+/// rates within a tick.
+pub const MARGIN: f64 = 0.9;
+/// Share of the jerk left at `σ = 0` a release of σ̇ plans with: the rest is for what the
+/// table's share still takes while σ falls to 0.
+pub const RELEASE_SHARE: f64 = 0.9;
+/// Largest `−σ̇` (1/s) and `|σ̈|` (1/s²) of a stop. Where the table's speed goes to 0 (at its
+/// end) the joint limits no longer bound them, and a σ̇ grown without bound there would
+/// have to be released in an instant at the end of the table. A stop from `σ = 1` at these
+/// bounds would take a tenth of a second: every joint limit binds long before.
+pub const MAX_SCALE_DECELERATION: f64 = 10.0;
+pub const MAX_SCALE_JERK: f64 = 200.0;
+/// A stop runs the table out at its time scale if the table ends within this many times the
+/// time a stop of the time scale would take: the table's end then is its own stop, braking
+/// at the limits, while a stop of the time scale, with the table's speeds falling to 0 at
+/// its end, would have ever less to brake with.
+pub const RUN_OUT_FACTOR: f64 = 1.0;
+/// Table rates below this count as standing.
+const MOVING: f64 = 1e-9;
+
+/// The rates of the coordinates on the unscaled profile (`σ = 1`) at one profile time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TableRates {
+    /// `q̇ₜ` (rad/s, m/s).
+    pub velocity: [f64; COORDINATES],
+    /// `q̈ₜ` (rad/s², m/s²).
+    pub acceleration: [f64; COORDINATES],
+    /// `d(q̇ₜ)/dτ`: equal to `q̈ₜ` for a profile whose commanded `s̈` is the derivative of
+    /// its `ṡ`; a table blends its `s̈` between the grid points, so the two differ.
+    pub velocity_rate: [f64; COORDINATES],
+    /// `q⃛ₜ = d(q̈ₜ)/dτ` (rad/s³, m/s³).
+    pub jerk: [f64; COORDINATES],
+}
+
+/// The acceleration and jerk limits of the coordinates during a stop (rates applied).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScaleLimits {
+    pub acceleration: [f64; COORDINATES],
+    pub jerk: [f64; COORDINATES],
+}
+
+/// The state of a profile's time scale being braked.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScaleBrake {
+    /// σ as a path brake over the profile time normalised by its duration: `s = τ/T`,
+    /// `v = σ/T`, `a = σ̇/T`, so the brake never passes the profile's end.
+    brake: PathBrake,
+    duration: f64,
+    limits: ScaleLimits,
+    /// Whether the stop runs the table out at its time scale (decided at the first tick).
+    run_out: Option<bool>,
+}
+
+impl ScaleBrake {
+    /// Starts braking the profile of `duration` s at profile time `tau` with time scale
+    /// `sigma` changing at `sigma_rate` (1/s), within `limits`.
+    pub fn new(tau: f64, sigma: f64, sigma_rate: f64, duration: f64, limits: ScaleLimits) -> Self {
+        let t = duration.max(f64::MIN_POSITIVE);
+        Self {
+            brake: PathBrake::new(tau / t, sigma.max(0.0) / t, sigma_rate / t, 0.0, 0.0),
+            duration: t,
+            limits,
+            run_out: None,
+        }
+    }
+
+    /// The profile time τ (s).
+    pub fn tau(&self) -> f64 {
+        self.brake.s * self.duration
+    }
+
+    /// The time scale σ.
+    pub fn sigma(&self) -> f64 {
+        self.brake.v * self.duration
+    }
+
+    /// σ̇ (1/s).
+    pub fn sigma_rate(&self) -> f64 {
+        self.brake.a * self.duration
+    }
+
+    /// Whether the time scale stands at 0 (or the profile is at its end).
+    pub fn is_stopped(&self) -> bool {
+        self.brake.is_stopped()
+    }
+
+    /// Advances `dt` seconds with the table's rates `table` at the current profile time.
+    pub fn advance(&mut self, dt: f64, table: &TableRates) {
+        let b = bounds(table, &self.limits, self.sigma(), self.sigma_rate(), dt);
+        let run_out = match self.run_out {
+            Some(run_out) => run_out,
+            None => {
+                let sigma = self.sigma().max(f64::MIN_POSITIVE);
+                let left = (self.duration - self.tau()) / sigma;
+                let braking = sigma / b.deceleration + b.deceleration / b.release_jerk;
+                let run_out = left <= RUN_OUT_FACTOR * braking;
+                if run_out {
+                    // The time scale is held from here (as an override step would hold it).
+                    self.brake.a = 0.0;
+                }
+                *self.run_out.insert(run_out)
+            }
+        };
+        if run_out {
+            self.brake.set_limits(0.0, 0.0, 0.0, 0.0);
+            self.brake.advance(dt);
+            return;
+        }
+        let t = self.duration;
+        self.brake.set_limits(
+            b.deceleration / t,
+            b.jerk_low / t,
+            b.jerk_high / t,
+            b.release_jerk / t,
+        );
+        self.brake.advance(dt);
+    }
+}
+
+/// The largest deceleration `d = −σ̇` of the time scale and the range of its jerk `σ̈` that
+/// keep every coordinate within `limits` (times [`MARGIN`]) at the table rates `table`, at
+/// the start of a tick of `dt` s and (to first order) at its end: where the table's speed
+/// is small its acceleration still changes the coefficients within the tick. The range is
+/// empty where the table's own jerk leaves none.
+fn bounds(
+    table: &TableRates,
+    limits: &ScaleLimits,
+    sigma: f64,
+    sigma_rate: f64,
+    dt: f64,
+) -> Bounds {
+    let mut bounds = Bounds {
+        deceleration: MAX_SCALE_DECELERATION,
+        jerk_low: -MAX_SCALE_JERK,
+        jerk_high: MAX_SCALE_JERK,
+        release_jerk: MAX_SCALE_JERK,
+    };
+    for i in 0..COORDINATES {
+        let (v, a, a_v) = (
+            table.velocity[i],
+            table.acceleration[i],
+            table.velocity_rate[i],
+        );
+        let used = sigma.powi(3) * table.jerk[i] + sigma * sigma_rate * (2.0 * a + a_v);
+        // Over the tick q̇ₜ grows by σ·dt·q̈ᵥ, and the jerk's own rate adds σ̇²·(2q̈ₜ + q̈ᵥ)
+        // and σ·σ̈·(q̈ₜ + q̈ᵥ) to it.
+        let end = (
+            v + dt * sigma * (a + a_v),
+            used + dt * sigma_rate * sigma_rate * (2.0 * a + a_v),
+        );
+        for (coefficient, used) in [(v, used), end] {
+            bounds.keep(coefficient, a, used, sigma, limits, i);
+        }
+        if v.abs() > MOVING {
+            // As σ → 0 the table's share `used` vanishes: what is left for σ̈ then.
+            let j = MARGIN * limits.jerk[i];
+            bounds.release_jerk = bounds.release_jerk.min(RELEASE_SHARE * j / v.abs());
+        }
+    }
+    bounds
+}
+
+/// The limits of the time scale in one tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Bounds {
+    /// Largest `−σ̇` (1/s).
+    deceleration: f64,
+    /// Range of `σ̈` (1/s²).
+    jerk_low: f64,
+    jerk_high: f64,
+    /// The jerk a release of σ̇ can count on until σ = 0.
+    release_jerk: f64,
+}
+
+impl Bounds {
+    /// Narrows the bounds to keep coordinate `i` within its limits where σ̇ and σ̈ act on it
+    /// with `coefficient` (`q̇ₜ`), the table's acceleration is `acceleration` and the jerk
+    /// without σ̈ is `used`: `|σ²·q̈ₜ − d·q̇ₜ| ≤ A` and `|used + σ̈·q̇ₜ| ≤ J`.
+    fn keep(
+        &mut self,
+        coefficient: f64,
+        acceleration: f64,
+        used: f64,
+        sigma: f64,
+        limits: &ScaleLimits,
+        i: usize,
+    ) {
+        let v = coefficient;
+        if v.abs() <= MOVING {
+            return;
+        }
+        let left = MARGIN * limits.acceleration[i] + v.signum() * sigma * sigma * acceleration;
+        self.deceleration = self.deceleration.min(left.max(0.0) / v.abs());
+        let j = MARGIN * limits.jerk[i];
+        let (x, y) = ((-j - used) / v, (j - used) / v);
+        self.jerk_low = self.jerk_low.max(x.min(y));
+        self.jerk_high = self.jerk_high.min(x.max(y));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DT: f64 = 1e-3;
+
+    fn limits(a: f64, j: f64) -> ScaleLimits {
+        ScaleLimits {
+            acceleration: [a; COORDINATES],
+            jerk: [j; COORDINATES],
+        }
+    }
+
+    /// A table cruising with `velocity` in every coordinate.
+    fn cruise(velocity: f64) -> TableRates {
+        TableRates {
+            velocity: [velocity; COORDINATES],
+            acceleration: [0.0; COORDINATES],
+            velocity_rate: [0.0; COORDINATES],
+            jerk: [0.0; COORDINATES],
+        }
+    }
+
+    /// Brakes a cruising table and checks the commanded rates every tick; returns the
+    /// stop's time.
+    fn stop_from_cruise(v: f64, a: f64, j: f64) -> f64 {
+        let table = cruise(v);
+        let mut b = ScaleBrake::new(0.0, 1.0, 0.0, 100.0, limits(a, j));
+        let mut last_acceleration = 0.0;
+        for tick in 1..100_000 {
+            b.advance(DT, &table);
+            let acceleration = b.sigma_rate() * v;
+            assert!(acceleration.abs() <= a * (1.0 + 1e-9), "{acceleration}");
+            let jerk = (acceleration - last_acceleration).abs() / DT;
+            assert!(jerk <= j * (1.0 + 1e-6), "{jerk}");
+            last_acceleration = acceleration;
+            assert!(b.sigma() >= 0.0);
+            if b.is_stopped() {
+                return tick as f64 * DT;
+            }
+        }
+        panic!("never stopped");
+    }
+
+    #[test]
+    fn from_cruise_it_stops_as_a_jerk_limited_brake_at_the_margin() {
+        let (v, a, j) = (3.0, 12.0, 60.0);
+        let t = stop_from_cruise(v, a, j);
+        // The joint brakes from v at MARGIN·a, building it up at MARGIN·j and releasing it
+        // at RELEASE_SHARE·MARGIN·j: v/a' plus half of both ramps.
+        let expected = v / (MARGIN * a) + 0.5 * (a / j + a / (RELEASE_SHARE * j));
+        assert!((t - expected).abs() < 3.0 * DT, "{t} vs {expected}");
+    }
+
+    #[test]
+    fn the_time_scale_never_exceeds_the_table_and_stops_at_its_end() {
+        // A table too short for the stop: the profile's end stops it.
+        let mut b = ScaleBrake::new(0.95, 1.0, 0.0, 1.0, limits(0.1, 1.0));
+        let table = cruise(1.0);
+        for _ in 0..10_000 {
+            b.advance(DT, &table);
+            assert!(b.sigma() <= 1.0 && b.tau() <= 1.0);
+        }
+        assert!(b.is_stopped());
+        assert_eq!(b.tau(), 1.0);
+    }
+
+    #[test]
+    fn while_the_table_uses_the_full_jerk_the_time_scale_may_only_ease_it() {
+        let table = TableRates {
+            velocity: [1.0; COORDINATES],
+            acceleration: [0.0; COORDINATES],
+            velocity_rate: [0.0; COORDINATES],
+            jerk: [MARGIN * 5.0; COORDINATES],
+        };
+        let b = bounds(&table, &limits(2.0, 5.0), 1.0, 0.0, DT);
+        // The table's jerk is MARGIN·J: σ̈ may only take it back.
+        assert_eq!(b.jerk_high, 0.0);
+        assert!((b.jerk_low + 2.0 * MARGIN * 5.0).abs() < 1e-12);
+        assert!((b.deceleration - MARGIN * 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_table_already_slowing_a_joint_leaves_less_deceleration() {
+        let mut table = cruise(1.0);
+        table.acceleration[0] = -1.0;
+        let b = bounds(&table, &limits(2.0, 5.0), 1.0, 0.0, DT);
+        // q̈ = q̈ₜ − d·q̇ₜ ≥ −A: d ≤ A·MARGIN − 1.
+        assert!((b.deceleration - (2.0 * MARGIN - 1.0)).abs() < 1e-12);
+    }
+}
