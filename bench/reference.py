@@ -13,6 +13,19 @@ for every problem, the duration of the same move planned by an open reference pl
   velocity and acceleration limits along the line. toppra has no jerk limit, so its
   duration is a lower bound for any jerk-limited timing of the path, ours included.
 
+For every linear move it also writes a jerk-aware lower bound: the larger of toppra's
+duration and the longest time-optimal jerk-limited rest-to-rest time of any single
+coordinate alone, computed by ruckig (without time synchronisation, so its duration is the
+slowest coordinate's own minimum time). The coordinates are the six joints from the first to
+the last point of our sampled path, under that joint's velocity, acceleration and jerk
+limits, and the TCP's distance along the line from 0 to `length_m`, under the TCP's
+velocity, acceleration and jerk limits (on a straight line the TCP's speed, acceleration and
+jerk are those of that distance). It is a lower bound for any timing of the move that keeps
+those limits, ours included: every coordinate must get from its start to its end, at rest at
+both, and alone it cannot be faster than its own time-optimal profile; toppra is the optimum
+without the jerk limit. It is not an optimum: a joint that moves back and forth on the path
+travels further than its net displacement, and the coordinates are not held to one path.
+
 For scale, toppra also times the straight joint-space line of every joint move under the
 joint velocity and acceleration limits: ruckig's duration over that one is what the jerk
 limit alone costs on those moves.
@@ -21,7 +34,9 @@ Usage: python reference.py PROBLEMS.toml RESULT.toml
 
 The result is TOML (written here by hand: the standard library reads TOML but does not
 write it): the package versions, then `joint` and `linear`, one duration in seconds per
-problem in input order, `nan` where the reference planner failed, and `joint_toppra`.
+problem in input order, `nan` where the reference planner failed, `joint_toppra`, and
+`linear_bound`, the jerk-aware lower bound of every linear move (`nan` where ruckig or
+toppra failed).
 """
 
 import importlib.metadata
@@ -41,10 +56,14 @@ import toppra.constraint
 GRIDPOINTS_MIN = 500
 
 
-def ruckig_duration(start, target, limits):
-    """Duration (s) of ruckig's time-synchronised rest-to-rest move, nan on failure."""
+def ruckig_duration(start, target, limits, synchronised=True):
+    """Duration (s) of ruckig's rest-to-rest move, nan on failure. Time-synchronised: every
+    coordinate arrives at the same time; without: the duration of the slowest coordinate's
+    own time-optimal profile."""
     dofs = len(start)
     inp = ruckig.InputParameter(dofs)
+    if not synchronised:
+        inp.synchronization = ruckig.Synchronization.No
     inp.current_position = list(start)
     inp.current_velocity = [0.0] * dofs
     inp.current_acceleration = [0.0] * dofs
@@ -99,6 +118,23 @@ def line_duration(path, length_m, joint_limits, tcp_limits):
     )
 
 
+def line_bound(path, length_m, toppra_s, joint_limits, tcp_limits):
+    """The jerk-aware lower bound (s) of a TCP line: the larger of toppra's duration
+    `toppra_s` and the slowest coordinate's time-optimal jerk-limited time alone (the joints
+    from the first to the last point of `path`, the TCP's distance from 0 to `length_m`)."""
+    start = list(path[0]) + [0.0]
+    target = list(path[-1]) + [length_m]
+    limits = {
+        key: list(joint_limits[key]) + [tcp_limits[key]]
+        for key in ("velocity", "acceleration", "jerk")
+    }
+    slowest = ruckig_duration(start, target, limits, synchronised=False)
+    # Python's max() of a nan depends on the order of its arguments.
+    if not (math.isfinite(slowest) and math.isfinite(toppra_s)):
+        return math.nan
+    return max(toppra_s, slowest)
+
+
 def straight_joint_duration(start, target, joint_limits):
     """toppra's duration for the straight joint-space line of a joint move (no jerk limit):
     next to ruckig's, what the jerk limit costs on these moves."""
@@ -132,6 +168,12 @@ def main(argv):
         for p in problems.get("linear", [])
     ]
     toppra_s = time.perf_counter() - started
+    started = time.perf_counter()
+    linear_bound = [
+        line_bound(p["path"], p["length_m"], d, joint_limits, tcp_limits)
+        for p, d in zip(problems.get("linear", []), linear)
+    ]
+    ruckig_s += time.perf_counter() - started
     joint_toppra = [
         straight_joint_duration(p["start"], p["target"], joint_limits)
         for p in problems.get("joint", [])
@@ -146,6 +188,7 @@ def main(argv):
         f.write(toml_floats("joint", joint))
         f.write(toml_floats("linear", linear))
         f.write(toml_floats("joint_toppra", joint_toppra))
+        f.write(toml_floats("linear_bound", linear_bound))
     return 0
 
 

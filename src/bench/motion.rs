@@ -7,8 +7,10 @@
 //! solve, per plan of each move type, and the durations of our moves over those of open
 //! reference planners on the same limits and problems: ruckig for joint moves (time-optimal
 //! and jerk-limited), toppra for the lines (time-optimal on the same joint path, without a
-//! jerk limit). The references run in Python (bench/reference.py in a virtual environment
-//! made by bench/setup.sh); without that environment their rows are skipped.
+//! jerk limit), and for the lines also a jerk-aware lower bound (the larger of toppra's
+//! duration and the slowest single coordinate's time-optimal jerk-limited time, by ruckig).
+//! The references run in Python (bench/reference.py in a virtual environment made by
+//! bench/setup.sh); without that environment their rows are skipped.
 
 mod exchange;
 mod problems;
@@ -194,6 +196,14 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
             "MoveLinear / toppra, without reserve and jerk bound".into(),
             &|r| of(&second_order(&linear), &r.linear),
         ),
+        row(
+            format!("MoveLinear / jerk-aware lower bound, as planned (reserve {reserve})"),
+            &|r| of(&linear_as_planned(p), &r.linear_bound),
+        ),
+        row(
+            "MoveLinear / jerk-aware lower bound, without reserve".into(),
+            &|r| of(&no_reserve(&linear), &r.linear_bound),
+        ),
         row("cross-check: conic TOPP / toppra, the same".into(), &|r| {
             of(&conic(p), &r.linear)
         }),
@@ -217,6 +227,58 @@ fn linear_as_planned(problems: &Problems) -> Vec<f64> {
         .collect()
 }
 
+/// What the jerk-aware bound says about the lines: which part of it binds, the slowest line
+/// against it, and every line faster than it (a planner bug).
+fn bound_notes(p: &Problems, r: &Reference) -> Vec<String> {
+    let mut notes = Vec::new();
+    let jerk_binds = r
+        .linear_bound
+        .iter()
+        .zip(&r.linear)
+        .filter(|(bound, toppra)| bound > toppra)
+        .count();
+    notes.push(format!(
+        "the jerk-aware bound is a single coordinate's jerk-limited time on {jerk_binds} of {} \
+         lines, toppra's duration on the rest",
+        r.linear_bound.len()
+    ));
+    let line = |k: usize, ours_s: f64| {
+        p.linear.get(k).map(|case| {
+            format!(
+                "[[linear]] {k} of {}, {:.1} mm, ours {ours_s:.3} s, bound {:.3} s, toppra \
+                 {:.3} s",
+                exchange::PROBLEMS_FILE,
+                case.length_m * 1e3,
+                r.linear_bound[k],
+                r.linear[k],
+            )
+        })
+    };
+    let as_planned = linear_as_planned(p);
+    if let Some(stats) = report::RatioStats::of(&as_planned, &r.linear_bound)
+        && let Some(worst) = line(stats.worst, as_planned[stats.worst])
+    {
+        notes.push(format!("slowest MoveLinear against the bound: {worst}"));
+    }
+    let no_reserve: Vec<f64> = p.linear.iter().map(|c| c.ours.no_reserve_s).collect();
+    for (what, ours) in [
+        ("as planned", &as_planned),
+        ("without reserve", &no_reserve),
+    ] {
+        if let Some(stats) = report::RatioStats::of(ours, &r.linear_bound)
+            && stats.below_one > 0
+            && let Some(fastest) = line(stats.best, ours[stats.best])
+        {
+            notes.push(format!(
+                "BUG: {} MoveLinear {what} faster than the jerk-aware bound, the fastest: \
+                 {fastest}",
+                stats.below_one
+            ));
+        }
+    }
+    notes
+}
+
 fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
     let p = &results.problems;
     let mut notes = vec![
@@ -225,6 +287,13 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
              joint vectors and {} repeats of every plan; calls/s from one untimed loop of the \
              same calls",
             p.joint.len() * timing::KINEMATICS_PER_PROBLEM,
+            timing::PLAN_REPEATS
+        ),
+        format!(
+            "solver rows: the path timer's own solve time (clarabel's for the conic problem) \
+             in the plans that called it, n counting those; TOPP-RA in {} repeats of every \
+             line as the executor plans it, the conic problem once per line as the set was \
+             planned; calls/s = solves per second of solve time",
             timing::PLAN_REPEATS
         ),
         format!(
@@ -248,6 +317,14 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
          double S on constant bounds; without jerk bound: TOPP-RA on toppra's constraints \
          alone (no cap, no stop distance), with the conic problem as its cross-check"
             .to_string(),
+        "jerk-aware lower bound: the larger of toppra's duration and the time-optimal \
+         jerk-limited rest-to-rest time of the slowest single coordinate alone (ruckig, not \
+         synchronised): each joint over its net displacement on our path, the TCP over the \
+         line's length, under the robot's v/a/j limits without reserve. No timing within \
+         those limits can be faster, so <1.0 there means our planner breaks a limit; it is \
+         not an optimum (a joint that moves back and forth travels more than its net \
+         displacement, and the coordinates are not held to one path)"
+            .to_string(),
         "scale: ruckig's jerk-limited optimum over toppra's v/a-only optimum of the same \
          joint moves (straight joint lines): what the jerk limit alone costs on such moves, \
          so the part of the MoveLinear ratio beyond it comes from our planner"
@@ -260,32 +337,22 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
             reasons.join(", ")
         ));
     }
-    if let Ok(r) = &results.reference
-        && let Some(worst) = report::RatioStats::of(&linear_as_planned(p), &r.linear)
-        && let Some(case) = p.linear.get(worst.worst)
-    {
-        notes.push(format!(
-            "slowest MoveLinear against toppra: [[linear]] {} of {PROBLEMS}, {:.1} mm, ours \
-             {:.3} s, toppra {:.3} s",
-            worst.worst,
-            case.length_m * 1e3,
-            case.ours.as_planned_s,
-            r.linear[worst.worst],
-            PROBLEMS = exchange::PROBLEMS_FILE,
-        ));
+    if let Ok(r) = &results.reference {
+        notes.extend(bound_notes(p, r));
     }
     match &results.reference {
         Ok(r) => {
             let failed = |d: &[f64]| d.iter().filter(|x| !x.is_finite()).count();
             notes.push(format!(
                 "reference: ruckig {} ({:.3} s for all), toppra {} ({:.2} s for the lines); failed: \
-                 ruckig {}, toppra {}; files in {}",
+                 ruckig {}, toppra {}, bound {}; files in {}",
                 r.ruckig_version,
                 r.ruckig_s,
                 r.toppra_version,
                 r.toppra_s,
                 failed(&r.joint),
                 failed(&r.linear),
+                failed(&r.linear_bound),
                 options.out.display()
             ));
         }
@@ -339,11 +406,49 @@ mod tests {
             "conic TOPP of one MoveLinear",
             "cross-check: conic TOPP / toppra",
             "without reserve and jerk bound",
+            "MoveLinear / jerk-aware lower bound, as planned",
+            "MoveLinear / jerk-aware lower bound, without reserve",
             "MoveAxes / ruckig, as planned",
             "skipped: no reference environment",
             "bash bench/setup.sh",
         ] {
             assert!(text.contains(expected), "{expected} missing in\n{text}");
         }
+    }
+
+    /// A reference for the lines of `p`: toppra at half our durations, the bound at `share`
+    /// of ours as planned per line.
+    fn reference(p: &Problems, share: &[f64]) -> Reference {
+        let ours = linear_as_planned(p);
+        Reference {
+            ruckig_version: "0".into(),
+            toppra_version: "0".into(),
+            ruckig_s: 0.0,
+            toppra_s: 0.0,
+            joint: vec![1.0; p.joint.len()],
+            linear: ours.iter().map(|o| 0.5 * o).collect(),
+            joint_toppra: vec![1.0; p.joint.len()],
+            linear_bound: ours.iter().zip(share).map(|(o, s)| s * o).collect(),
+        }
+    }
+
+    #[test]
+    fn a_line_faster_than_the_jerk_aware_bound_is_named_as_a_bug() {
+        let robot = Robot::from_config(&Config::load(None).unwrap()).unwrap();
+        let p = Problems::generate(&robot, 3, 2, 2).unwrap();
+        let sound = bound_notes(&p, &reference(&p, &[0.9, 0.4]));
+        assert!(sound.iter().all(|n| !n.contains("BUG")), "{sound:?}");
+        assert!(sound[0].contains("on 1 of 2 lines"), "{sound:?}");
+        assert!(
+            sound[1].contains("against the bound: [[linear]] 1 of"),
+            "{sound:?}"
+        );
+
+        let broken = bound_notes(&p, &reference(&p, &[0.9, 1.1]));
+        let bug = broken
+            .iter()
+            .find(|n| n.starts_with("BUG: 1 MoveLinear as planned"))
+            .unwrap_or_else(|| panic!("{broken:?}"));
+        assert!(bug.contains("the fastest: [[linear]] 1 of"), "{bug}");
     }
 }

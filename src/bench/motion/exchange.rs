@@ -57,6 +57,10 @@ pub struct Reference {
     /// toppra's duration (s) of the straight joint line of every joint move, without a jerk
     /// limit: next to ruckig's, the cost of the jerk limit.
     pub joint_toppra: Vec<f64>,
+    /// The jerk-aware lower bound (s) of every linear move: the larger of toppra's duration
+    /// and the slowest coordinate's time-optimal jerk-limited time alone (each joint over its
+    /// net displacement, the TCP over the line's length); NaN where ruckig or toppra failed.
+    pub linear_bound: Vec<f64>,
 }
 
 fn floats(values: impl IntoIterator<Item = f64>) -> Value {
@@ -162,6 +166,7 @@ pub fn parse_reference(text: &str, joints: usize, lines: usize) -> Result<Refere
         joint: durations("joint", joints)?,
         linear: durations("linear", lines)?,
         joint_toppra: durations("joint_toppra", joints)?,
+        linear_bound: durations("linear_bound", lines)?,
     })
 }
 
@@ -231,6 +236,10 @@ mod tests {
             root["tcp_limits"]["acceleration"].as_float(),
             Some(robot.tcp.acceleration)
         );
+        // The jerk limits, for the jerk-aware bound.
+        let jerk = root["joint_limits"]["jerk"].as_array().unwrap();
+        assert_eq!(jerk[5].as_float(), Some(robot.limits.jerk[5]));
+        assert_eq!(root["tcp_limits"]["jerk"].as_float(), Some(robot.tcp.jerk));
         let joint = root["joint"].as_array().unwrap();
         assert_eq!(joint.len(), 3);
         // Floats survive the round trip exactly.
@@ -244,7 +253,7 @@ mod tests {
 
     const RESULT: &str = "ruckig = \"0.19.4\"\ntoppra = \"0.6.10\"\nruckig_seconds = 0.5\n\
                           toppra_seconds = 2.0\njoint = [1.5, nan]\nlinear = [0.25]\n\
-                          joint_toppra = [1.0, 1.25]\n";
+                          joint_toppra = [1.0, 1.25]\nlinear_bound = [0.375]\n";
 
     #[test]
     fn the_reference_result_is_read_with_its_failures() {
@@ -255,6 +264,20 @@ mod tests {
         assert_eq!(r.linear, [0.25]);
         assert_eq!(r.toppra_s, 2.0);
         assert_eq!(r.joint_toppra, [1.0, 1.25]);
+        assert_eq!(r.linear_bound, [0.375]);
+    }
+
+    #[test]
+    fn a_result_without_the_bound_of_every_line_is_refused() {
+        let without = RESULT.replace("linear_bound = [0.375]\n", "");
+        let e = parse_reference(&without, 2, 1).unwrap_err();
+        assert!(e.contains("no array linear_bound"), "{e}");
+        let short = RESULT.replace("linear_bound = [0.375]", "linear_bound = []");
+        let e = parse_reference(&short, 2, 1).unwrap_err();
+        assert!(
+            e.contains("linear_bound: 0 durations for 1 problems"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -20,6 +20,8 @@ use shared_types::config::{Config, JointLimitsRad};
 use shared_types::ipc::{AXES, MotionCommand, MotionCommandKind};
 use shared_types::pose;
 
+use super::timing::solve_time;
+
 /// Shortest joint move, as a share of the way to the drawn point.
 const MIN_JOINT_SHARE: f64 = 0.01;
 /// Shortest and longest TCP line, m.
@@ -94,8 +96,6 @@ pub struct Robot {
     pub timer: PathTimer,
     /// Reachability analysis on velocity and acceleration only: the constraints toppra has.
     pub second_order: PathTimer,
-    /// The conic problem on the same constraints: the cross-check of `second_order`.
-    pub conic: PathTimer,
 }
 
 impl Robot {
@@ -110,7 +110,6 @@ impl Robot {
             reserve: config.main.planner.override_reserve,
             timer: PathTimer::reachability(JerkBound::Joints),
             second_order: PathTimer::reachability(JerkBound::Off),
-            conic: PathTimer::conic(JerkBound::Off),
         })
     }
 
@@ -184,7 +183,8 @@ pub struct LinearCase {
     /// The joints of our path at `s = k / SAMPLES`, `k = 0..=SAMPLES`.
     pub path: Vec<[f64; AXES]>,
     pub ours: Ours,
-    /// The conic problem's duration (s) on the constraints of `ours.second_order_s`.
+    /// The conic problem's duration (s) on the constraints of `ours.second_order_s` (the
+    /// cross-check of the reachability analysis).
     pub conic_s: f64,
 }
 
@@ -212,13 +212,16 @@ impl LinearCase {
 }
 
 /// The problem set with our planner's answers.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Problems {
     pub seed: u64,
     pub joint: Vec<JointCase>,
     pub linear: Vec<LinearCase>,
     /// Linear draws the planner refused, by reason.
     pub refused: BTreeMap<&'static str, usize>,
+    /// The conic problem's solve time (s), as clarabel measured it, of every linear move
+    /// whose plan solved it: clock readings, the one part a seed does not reproduce.
+    pub conic_solve_s: Vec<f64>,
 }
 
 impl Problems {
@@ -236,6 +239,7 @@ impl Problems {
             joint: Vec::with_capacity(joints),
             linear: Vec::with_capacity(lines),
             refused: BTreeMap::new(),
+            conic_solve_s: Vec::with_capacity(lines),
         };
         while problems.joint.len() < joints {
             if let Some(case) = draw_joint_case(robot, &mut rng)? {
@@ -248,7 +252,10 @@ impl Problems {
                 break;
             }
             match draw_linear_case(robot, &mut rng)? {
-                Ok(case) => problems.linear.push(case),
+                Ok((case, conic_solve_s)) => {
+                    problems.linear.push(case);
+                    problems.conic_solve_s.extend(conic_solve_s);
+                }
                 Err(reason) => *problems.refused.entry(reason).or_default() += 1,
             }
         }
@@ -289,11 +296,12 @@ fn draw_joint_case(robot: &Robot, rng: &mut Rng) -> Result<Option<JointCase>, Pr
     }))
 }
 
-/// One linear move, or the reason the planner refused the draw.
+/// One linear move with the conic problem's solve time (s; `None` if its plan did not solve
+/// it), or the reason the planner refused the draw.
 fn draw_linear_case(
     robot: &Robot,
     rng: &mut Rng,
-) -> Result<Result<LinearCase, &'static str>, ProblemError> {
+) -> Result<Result<(LinearCase, Option<f64>), &'static str>, ProblemError> {
     let start = rng.joints(&robot.limits);
     let tcp = robot.kinematics.flange(&start);
     let direction = unit_vector(rng);
@@ -336,7 +344,10 @@ fn draw_linear_case(
     let LinearPlan::Move(second_order) = second_order else {
         return Err(ProblemError::Replan("stationary without jerk bound".into()));
     };
-    let conic = LinearMove::plan(start, &command, &robot.arm_timed_by(&robot.conic), 0.0)
+    // A conic timer of its own: its report stays empty unless this plan solves (see
+    // `timing::solve_time`).
+    let conic_timer = PathTimer::conic(JerkBound::Off);
+    let conic = LinearMove::plan(start, &command, &robot.arm_timed_by(&conic_timer), 0.0)
         .map_err(replan)?;
     let LinearPlan::Move(conic) = conic else {
         return Err(ProblemError::Replan(
@@ -351,7 +362,7 @@ fn draw_linear_case(
             .q;
         path.push(previous);
     }
-    Ok(Ok(LinearCase {
+    let case = LinearCase {
         start,
         pose: target,
         length_m,
@@ -362,7 +373,8 @@ fn draw_linear_case(
             second_order_s: second_order.timing().profile.duration(),
         },
         conic_s: conic.timing().profile.duration(),
-    }))
+    };
+    Ok(Ok((case, solve_time(&conic_timer))))
 }
 
 /// A direction uniformly on the unit sphere (rejection sampling in the cube).
@@ -424,7 +436,18 @@ mod tests {
     fn a_seed_gives_the_same_problems_and_the_planner_accepts_them() {
         let robot = robot();
         let a = Problems::generate(&robot, 11, 4, 2).unwrap();
-        assert_eq!(a, Problems::generate(&robot, 11, 4, 2).unwrap());
+        let b = Problems::generate(&robot, 11, 4, 2).unwrap();
+        assert_eq!(
+            (&a.joint, &a.linear, &a.refused),
+            (&b.joint, &b.linear, &b.refused)
+        );
+        // Every line of the set is long enough for its plan to solve the conic problem.
+        assert_eq!(a.conic_solve_s.len(), 2);
+        assert!(
+            a.conic_solve_s.iter().all(|&t| t > 0.0),
+            "{:?}",
+            a.conic_solve_s
+        );
         assert_ne!(a.joint, Problems::generate(&robot, 12, 4, 2).unwrap().joint);
         assert_eq!((a.joint.len(), a.linear.len()), (4, 2));
         for case in &a.joint {

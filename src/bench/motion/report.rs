@@ -22,6 +22,8 @@ pub struct RatioStats {
     pub max: f64,
     /// Index of the problem with the largest ratio.
     pub worst: usize,
+    /// Index of the problem with the smallest ratio.
+    pub best: usize,
     /// Median durations (s): ours and the reference's.
     pub ours_p50_s: f64,
     pub reference_p50_s: f64,
@@ -52,12 +54,10 @@ impl RatioStats {
             .filter(|&(_, o, r)| valid(o) && valid(r))
             .collect();
         let ratios: Vec<f64> = pairs.iter().map(|(_, o, r)| o / r).collect();
-        let min = ratios.iter().copied().fold(f64::INFINITY, f64::min);
-        let (worst, max) = pairs
-            .iter()
-            .zip(&ratios)
-            .map(|(p, &x)| (p.0, x))
-            .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+        let indexed = || pairs.iter().zip(&ratios).map(|(p, &x)| (p.0, x));
+        let (best, min) = indexed().fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+        let (worst, max) =
+            indexed().fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
         (!ratios.is_empty()).then(|| Self {
             count: ratios.len(),
             failed: ours.len().min(reference.len()) - pairs.len(),
@@ -65,6 +65,7 @@ impl RatioStats {
             min,
             max,
             worst,
+            best,
             ours_p50_s: median(&pairs.iter().map(|p| p.1).collect::<Vec<_>>()),
             reference_p50_s: median(&pairs.iter().map(|p| p.2).collect::<Vec<_>>()),
             over_target: ratios.iter().filter(|&&x| x > TARGET_RATIO).count(),
@@ -96,13 +97,14 @@ pub struct OptimalityRow {
     pub ratios: Result<RatioStats, String>,
 }
 
+/// Width of the label column at least; a longer label widens it for the whole table.
 const LABEL: usize = 48;
 const COLUMN: usize = 8;
 const COUNT: usize = 6;
 
-/// Cells after a left-aligned label, each right-aligned in its width.
-fn cells(label: &str, values: &[(&str, usize)]) -> String {
-    let mut text = format!("{label:<LABEL$}");
+/// Cells after a label left-aligned in `width`, each right-aligned in its width.
+fn cells(label: &str, width: usize, values: &[(&str, usize)]) -> String {
+    let mut text = format!("{label:<width$}");
     for (value, width) in values {
         let _ = write!(text, " {value:>width$}");
     }
@@ -118,7 +120,7 @@ fn per_second(rate: f64) -> String {
     }
 }
 
-fn timing_line(row: &TimingRow) -> String {
+fn timing_line(row: &TimingRow, width: usize) -> String {
     match row {
         TimingRow::Measured {
             label,
@@ -146,6 +148,7 @@ fn timing_line(row: &TimingRow) -> String {
             let rate = per_second(*rate);
             cells(
                 label,
+                width,
                 &[
                     (unit, 4),
                     (&n, COUNT),
@@ -159,7 +162,7 @@ fn timing_line(row: &TimingRow) -> String {
     }
 }
 
-fn optimality_line(row: &OptimalityRow) -> String {
+fn optimality_line(row: &OptimalityRow, width: usize) -> String {
     match &row.ratios {
         Ok(r) => {
             let [n, p50, min, max, ours, reference, over, below] = [
@@ -174,6 +177,7 @@ fn optimality_line(row: &OptimalityRow) -> String {
             ];
             cells(
                 &row.label,
+                width,
                 &[
                     (&n, COUNT),
                     (&p50, COLUMN),
@@ -186,7 +190,7 @@ fn optimality_line(row: &OptimalityRow) -> String {
                 ],
             )
         }
-        Err(why) => format!("{:<LABEL$} skipped: {why}", row.label),
+        Err(why) => format!("{:<width$} skipped: {why}", row.label),
     }
 }
 
@@ -197,8 +201,15 @@ pub fn render(
     optimality: &[OptimalityRow],
     notes: &[String],
 ) -> String {
+    let label = timing
+        .iter()
+        .map(|TimingRow::Measured { label, .. }| label)
+        .chain(optimality.iter().map(|row| &row.label))
+        .map(|label| label.chars().count())
+        .fold(LABEL, usize::max);
     let timing_header = cells(
         "timing",
+        label,
         &[
             ("unit", 4),
             ("n", COUNT),
@@ -210,6 +221,7 @@ pub fn render(
     );
     let optimality_header = cells(
         "optimality: our duration / reference",
+        label,
         &[
             ("n", COUNT),
             ("p50", COLUMN),
@@ -229,9 +241,9 @@ pub fn render(
     let rule = "-".repeat(width);
     let mut lines: Vec<String> = title.to_vec();
     lines.extend([rule.clone(), timing_header]);
-    lines.extend(timing.iter().map(timing_line));
+    lines.extend(timing.iter().map(|row| timing_line(row, label)));
     lines.extend([rule.clone(), optimality_header]);
-    lines.extend(optimality.iter().map(optimality_line));
+    lines.extend(optimality.iter().map(|row| optimality_line(row, label)));
     lines.push(rule);
     lines.extend_from_slice(notes);
     lines.join("\n") + "\n"
@@ -250,7 +262,7 @@ mod tests {
         assert_eq!(r.over_target, 1);
         assert_eq!(r.below_one, 1);
         assert!((r.min - 0.9).abs() < 1e-12 && (r.max - 1.05).abs() < 1e-12);
-        assert_eq!(r.worst, 1);
+        assert_eq!((r.worst, r.best), (1, 3));
         assert_eq!(r.p50, 1.0);
         assert_eq!((r.ours_p50_s, r.reference_p50_s), (2.1, 2.0));
         assert_eq!(RatioStats::of(&[1.0], &[f64::NAN]), None);
@@ -312,5 +324,26 @@ mod tests {
         );
         assert!(text.contains("line") && text.contains("skipped: no reference"));
         assert_eq!(*lines.last().unwrap(), "note");
+    }
+
+    #[test]
+    fn a_long_label_widens_the_label_column_of_both_sections() {
+        let long = "x".repeat(LABEL + 12);
+        let timing = [TimingRow::Measured {
+            label: "IK".into(),
+            micros: false,
+            summary: None,
+            per_second: 1.0,
+        }];
+        let optimality = [OptimalityRow {
+            label: long.clone(),
+            ratios: Ok(RatioStats::of(&[1.0], &[1.0]).unwrap()),
+        }];
+        let text = render(&[], &timing, &optimality, &[]);
+        let line = |start: &str| text.lines().find(|l| l.starts_with(start)).unwrap();
+        let length = |start: &str| line(start).chars().count();
+        assert_eq!(line("timing").find(" unit"), Some(LABEL + 12), "{text}");
+        assert_eq!(length("timing"), length("IK"), "{text}");
+        assert_eq!(length("optimality"), length(&long), "{text}");
     }
 }

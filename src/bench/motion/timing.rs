@@ -1,11 +1,13 @@
 //! Clock measurements of `rc bench motion`: inverse and forward kinematics per solve, and
 //! planning per move, each call timed on its own (`Instant`, whose own cost of some tens of
-//! ns is included), plus the solve rate of a loop timed as a whole.
+//! ns is included), plus the solve rate of a loop timed as a whole; and the path timers'
+//! own solve times, counted only for the plans that called them.
 
 use std::hint::black_box;
 use std::time::Instant;
 
 use planner::linear_move::LinearMove;
+use planner::topp::PathTimer;
 use shared_types::ipc::{AXES, MotionCommand};
 
 use super::problems::{JointCase, LinearCase, Problems, Rng, Robot};
@@ -36,10 +38,10 @@ pub struct Timings {
     pub fk: CallTimes,
     pub plan_joint: CallTimes,
     pub plan_linear: CallTimes,
-    /// The reachability solve of every linear plan (all its passes).
+    /// The reachability solve of every linear plan that called it (all its passes).
     pub topp: CallTimes,
-    /// The conic problem's solve of every linear move (velocity and acceleration only), as
-    /// clarabel measured it.
+    /// The conic problem's solve of every linear move (velocity and acceleration only) whose
+    /// plan called it, as clarabel measured it when the problem set was planned.
     pub conic: CallTimes,
 }
 
@@ -98,7 +100,7 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
         LinearCase::plan(robot, *start, command, robot.reserve)
     });
     let topp = topp_solves(robot, &linear_commands);
-    let conic = conic_solves(robot, &problems.linear);
+    let conic = solver_times(problems.conic_solve_s.iter().copied());
     Timings {
         ik_all,
         ik_one,
@@ -110,24 +112,24 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
     }
 }
 
-/// The solve time of the planner's path timer for every linear plan of `commands`; the
-/// rate is solves per second of solve time.
-fn topp_solves(robot: &Robot, commands: &[([f64; AXES], MotionCommand)]) -> CallTimes {
-    solver_times(commands.iter().filter_map(|(start, command)| {
-        LinearCase::plan(robot, *start, command, robot.reserve)
-            .ok()
-            .map(|_| robot.timer.last_report().solve_s)
-    }))
+/// The solve time (s) of the last path `timer` timed; `None` if it has made no pass.
+///
+/// A plan may decide without its timer (a stationary path, one without constant stop
+/// bounds), and the timer's report then still holds the path before. So each measured plan
+/// gets a timer of its own, whose report is empty until the plan calls it.
+pub fn solve_time(timer: &PathTimer) -> Option<f64> {
+    let report = timer.last_report();
+    (report.passes > 0).then_some(report.solve_s)
 }
 
-/// The solve time of the conic problem for every linear move of `cases`, as clarabel
-/// measured it.
-fn conic_solves(robot: &Robot, cases: &[LinearCase]) -> CallTimes {
-    let arm = robot.arm_timed_by(&robot.conic);
-    solver_times(cases.iter().filter_map(|c| {
-        LinearMove::plan(c.start, &LinearCase::command(c.pose), &arm, 0.0)
-            .ok()
-            .map(|_| robot.conic.last_report().solve_s)
+/// The solve time of the planner's path timer in every linear plan of `commands` that
+/// called it; the rate is solves per second of solve time.
+fn topp_solves(robot: &Robot, commands: &[([f64; AXES], MotionCommand)]) -> CallTimes {
+    solver_times(commands.iter().filter_map(|(start, command)| {
+        // Reachability analysis keeps no state but the report: a new timer costs nothing.
+        let timer = PathTimer::reachability(robot.timer.jerk());
+        LinearMove::plan(*start, command, &robot.arm_timed_by(&timer), robot.reserve).ok()?;
+        solve_time(&timer)
     }))
 }
 
@@ -138,5 +140,39 @@ fn solver_times(times: impl Iterator<Item = f64>) -> CallTimes {
     CallTimes {
         per_second: times.len() as f64 / total_s.max(f64::MIN_POSITIVE),
         each: Distribution::new(times.iter().map(|t| (t * 1e9).round() as u64).collect()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use planner::linear_move::LinearPlan;
+    use shared_types::config::Config;
+    use shared_types::pose;
+
+    #[test]
+    fn only_plans_that_called_the_timer_count_as_solves() {
+        let robot = Robot::from_config(&Config::load(None).unwrap()).unwrap();
+        let problems = Problems::generate(&robot, 5, 1, 1).unwrap();
+        let case = &problems.linear[0];
+        let moving = LinearCase::command(case.pose);
+        let here = LinearCase::command(pose::pose(&robot.kinematics.flange(&case.start)));
+
+        let timer = PathTimer::reachability(robot.timer.jerk());
+        assert_eq!(solve_time(&timer), None);
+        let arm = robot.arm_timed_by(&timer);
+        LinearMove::plan(case.start, &moving, &arm, robot.reserve).unwrap();
+        assert!(solve_time(&timer).is_some_and(|t| t > 0.0));
+        let still = LinearMove::plan(case.start, &here, &arm, robot.reserve).unwrap();
+        assert!(matches!(still, LinearPlan::Stationary(_)));
+        // The shared timer still reports the moving plan's solve.
+        assert!(solve_time(&timer).is_some());
+
+        let commands = [
+            (case.start, moving),
+            (case.start, here),
+            (case.start, moving),
+        ];
+        assert_eq!(topp_solves(&robot, &commands).each.count(), 2);
     }
 }
