@@ -144,7 +144,16 @@ fn timing_rows(t: &Timings) -> Vec<TimingRow> {
         measured("IK, one branch (ArmGeometry::inverse_in)", false, &t.ik_one),
         measured("FK (Kinematics::flange)", false, &t.fk),
         measured("plan MoveAxes (JointMove::plan)", true, &t.plan_joint),
-        measured("plan MoveLinear (LinearMove::plan)", true, &t.plan_linear),
+        measured(
+            "plan MoveLinear in the tick (constant bounds)",
+            true,
+            &t.plan_linear_tick,
+        ),
+        measured(
+            "plan MoveLinear with its table (table thread)",
+            true,
+            &t.plan_linear,
+        ),
         measured(
             "TOPP-RA solve of one MoveLinear (jerk-limited)",
             true,
@@ -313,9 +322,10 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
         "MoveLinear: toppra times the same joint path (our samples, cubic spline) under the \
          same joint v/a and TCP v/a limits but has no jerk limit: a lower bound, so ours is \
          expected slower; <1.0 would mean ours breaks a v/a limit. As planned: the faster of \
-         the jerk-limited TOPP-RA table (with the stops' speed cap and stop distance) and the \
-         double S on constant bounds; without jerk bound: TOPP-RA on toppra's constraints \
-         alone (no cap, no stop distance), with the conic problem as its cross-check"
+         the jerk-limited TOPP-RA table (with its speed cap) and the double S on constant \
+         bounds, as the planner's table thread plans a buffered line (a line sent to a \
+         standing arm starts on the double S); without jerk bound: TOPP-RA on toppra's \
+         constraints alone (no cap), with the conic problem as its cross-check"
             .to_string(),
         "jerk-aware lower bound: the larger of toppra's duration and the time-optimal \
          jerk-limited rest-to-rest time of the slowest single coordinate alone (ruckig, not \
@@ -396,6 +406,7 @@ mod tests {
         let t = &results.timings;
         assert_eq!(t.ik_all.each.count(), 5 * timing::KINEMATICS_PER_PROBLEM);
         assert_eq!(t.plan_linear.each.count(), 2 * timing::PLAN_REPEATS);
+        assert_eq!(t.plan_linear_tick.each.count(), 2 * timing::PLAN_REPEATS);
         assert_eq!(t.topp.each.count(), 2 * timing::PLAN_REPEATS);
         assert_eq!(t.conic.each.count(), 2);
         let text = render(&results, &options);

@@ -36,10 +36,10 @@ use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
 use crate::linear_move::{self, Arm, LinearMove, LinearPlan, TcpLimits};
 use crate::motion::{ActiveMove, Dynamics, Handover, Motion, Path, Phase, PlannedBlend, Running};
 use crate::queue::QueuedMove;
+use crate::refinement::{InlineRefiner, Refiner, TableRequest};
 use crate::safety_filter::{Intervention, SafetyFilter};
 use crate::sequences::{Cursor, Sequence, Sequences, overlap};
 use crate::targets;
-use crate::topp::{JerkBound, PathTimer};
 
 /// Joint speed (rad/s) below which the servo feedback counts as standing still.
 const REST_VELOCITY: f64 = 1e-3;
@@ -56,9 +56,11 @@ pub struct Executor {
     kinematics: Kinematics,
     /// The UR-type geometry for configuration bits (`None` if the robot does not fit it).
     geometry: Option<ArmGeometry>,
-    /// Times Cartesian paths: jerk-limited reachability analysis, constant bounds where it
-    /// fails (see [`linear_move`]).
-    path_timer: PathTimer,
+    /// Times buffered Cartesian moves by their tables, off the tick (the tick plans them on
+    /// constant bounds).
+    refiner: Box<dyn Refiner>,
+    /// The jobs that start within the setpoint window sent last: their plans stay.
+    window_starts: WindowStarts,
     /// The last guard before the servo: every point, committed or looked ahead, passes it.
     guard: SafetyFilter,
     /// The guard found a point outside the limits: the moves ended with an error and the
@@ -91,8 +93,19 @@ pub struct Executor {
 
 impl Executor {
     /// An executor for the robot and planner settings of `config`; `instance` identifies
-    /// this planner process in its status.
+    /// this planner process in its status. Tables of buffered lines are planned when the
+    /// lines are accepted ([`InlineRefiner`]): for tests, where the tick has no deadline.
     pub fn new(config: &Config, instance: u64) -> Self {
+        let capacity = 2 * usize::from(config.main.planner.queue_length);
+        Self::with_refiner(
+            config,
+            instance,
+            Box::new(InlineRefiner::new(config, capacity)),
+        )
+    }
+
+    /// An executor whose buffered lines get their tables from `refiner`.
+    pub fn with_refiner(config: &Config, instance: u64, refiner: Box<dyn Refiner>) -> Self {
         let queue_length = usize::from(config.main.planner.queue_length);
         // The interpreter starts with the same override and sends every change.
         let override_fraction = config.main.interpreter.initial_override_percent / 100.0;
@@ -105,7 +118,8 @@ impl Executor {
             },
             kinematics: Kinematics::new(&config.robot.kinematics),
             geometry: ArmGeometry::new(&config.robot.kinematics).ok(),
-            path_timer: PathTimer::reachability(JerkBound::Joints),
+            refiner,
+            window_starts: WindowStarts::default(),
             guard: SafetyFilter::new(config.robot.limits_rad())
                 .expect("the safety filter's fixed problem layout is valid"),
             guard_stop: false,
@@ -169,6 +183,7 @@ impl Executor {
         for command in commands {
             self.accept(command, drive);
         }
+        self.take_tables();
         self.finish_stop();
         if self.synced && drive.is_enabled() {
             if self.tick <= feedback.tick {
@@ -345,7 +360,16 @@ impl Executor {
                 .map_err(|e| e.code())
         };
         match planned {
-            Ok(queued) => self.buffer(queued),
+            Ok(queued) => {
+                if let Some(LinearPlan::Move(_)) = queued.linear {
+                    self.refiner.request(&TableRequest {
+                        job,
+                        start,
+                        command: queued.command,
+                    });
+                }
+                self.buffer(queued);
+            }
             Err(code) => self.report(job, state::ERROR, code),
         }
     }
@@ -477,6 +501,38 @@ impl Executor {
         })
     }
 
+    /// Puts the tables the refiner has ready into their buffered moves: only into a move that
+    /// still starts where the table was planned from, has not entered the setpoint window
+    /// sent last (what the servo holds must not change) and is not the decided blend of the
+    /// running move.
+    fn take_tables(&mut self) {
+        let blended = match self.motion.phase {
+            Phase::Running(Running {
+                handover: Handover::Blend(blend),
+                ..
+            }) => Some(blend.next.job),
+            _ => None,
+        };
+        while let Some(refined) = self.refiner.take() {
+            if self.window_starts.contains(refined.job) || blended == Some(refined.job) {
+                continue;
+            }
+            for sequence in Sequence::BOTH {
+                let queue = self.sequences.queue_mut(sequence);
+                for index in 0..queue.len() {
+                    if let Some(queued) = queue.get_mut(index)
+                        && queued.command.job == refined.job
+                        && queued
+                            .linear
+                            .is_some_and(|plan| plan.start() == &refined.start)
+                    {
+                        queued.linear = Some(refined.plan);
+                    }
+                }
+            }
+        }
+    }
+
     /// The linear move of `command` from `start`, or the SRCI code why there is none.
     fn plan_linear(&self, start: [f64; AXES], command: &MotionCommand) -> Result<LinearPlan, u16> {
         let geometry = self.geometry.as_ref().ok_or(code::TARGET_UNREACHABLE)?;
@@ -486,7 +542,7 @@ impl Executor {
             geometry,
             joints: &limits,
             tcp: &self.dynamics.tcp,
-            timer: &self.path_timer,
+            timer: None,
         };
         LinearMove::plan(start, command, &arm, self.dynamics.override_reserve).map_err(|e| e.code())
     }
@@ -516,6 +572,14 @@ impl Executor {
                     if let Some(front) = self.sequences.queue_mut(sequence).front_mut() {
                         front.command.joints_rad = plan.target();
                         front.linear = Some(plan);
+                        // It starts now: the table serves a start from here again later.
+                        if let LinearPlan::Move(_) = plan {
+                            self.refiner.request(&TableRequest {
+                                job: command.job,
+                                start,
+                                command: front.command,
+                            });
+                        }
                     }
                     return;
                 }
@@ -787,6 +851,7 @@ impl Executor {
     /// The committed point and the points a copy of the motion takes in the following ticks.
     fn window(&mut self, dt: f64) -> ServoSetpoint {
         let mut ahead = self.motion;
+        let mut starts = WindowStarts::default();
         let mut cursor = Cursor::default();
         let mut guard_stop = self.guard_stop;
         let kinematics = &self.kinematics;
@@ -805,7 +870,11 @@ impl Executor {
                     &mut cursor,
                     dt,
                     self.override_target,
-                    &mut |_, _, _| {},
+                    &mut |job, state, _| {
+                        if state == state::ACTIVE {
+                            starts.add(job);
+                        }
+                    },
                 );
                 let guarded = self
                     .guard
@@ -814,6 +883,7 @@ impl Executor {
                 guarded.point
             };
         }
+        self.window_starts = starts;
         ServoSetpoint {
             planner_instance: self.status.instance,
             first_tick: self.tick,
@@ -871,6 +941,33 @@ impl Executor {
         s.accelerating = s.moving && path_acceleration > 1e-9;
         s.decelerating = s.moving && path_acceleration < -1e-9;
         s.constant_velocity = s.moving && !s.accelerating && !s.decelerating;
+    }
+}
+
+/// The jobs that start within one setpoint window (a window holds few: past that many,
+/// every job counts as started).
+#[derive(Debug, Clone, Copy, Default)]
+struct WindowStarts {
+    jobs: [u32; WindowStarts::CAPACITY],
+    len: usize,
+    overflowed: bool,
+}
+
+impl WindowStarts {
+    const CAPACITY: usize = 8;
+
+    fn add(&mut self, job: u32) {
+        match self.jobs.get_mut(self.len) {
+            Some(slot) => {
+                *slot = job;
+                self.len += 1;
+            }
+            None => self.overflowed = true,
+        }
+    }
+
+    fn contains(&self, job: u32) -> bool {
+        self.overflowed || self.jobs[..self.len].contains(&job)
     }
 }
 

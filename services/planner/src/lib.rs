@@ -10,7 +10,8 @@
 //! two moves for every BlendingMode), [`brake`] (stops on the path with constant bounds), [`scale_brake`] (stops on the time scale of a
 //! time-optimal table), [`motion`] (one tick
 //! of commanded motion), [`safety_filter`] (the last guard of every point before the
-//! servo), [`queue`] (the moves of one sequence),
+//! servo), [`queue`] (the moves of one sequence), [`refinement`] (time-optimal tables of buffered
+//! lines, planned off the tick),
 //! [`sequences`] (the primary and the secondary sequence), [`events`] (paced job events),
 //! [`executor`] (the per-tick state machine) and [`kinematics`] (forward kinematics,
 //! Jacobian, analytic inverse kinematics, configuration bits and turn numbers). [`service`]
@@ -27,6 +28,7 @@ pub mod linear_move;
 pub mod motion;
 pub mod profile;
 pub mod queue;
+pub mod refinement;
 pub mod safety_filter;
 pub mod scale_brake;
 pub mod sequences;

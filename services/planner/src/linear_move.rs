@@ -170,10 +170,11 @@ pub struct Arm<'a> {
     pub geometry: &'a ArmGeometry,
     pub joints: &'a JointLimitsRad,
     pub tcp: &'a TcpLimits,
-    /// The planner's time-optimal path timer. One without the jerk bound
-    /// ([`JerkBound::Off`], for comparisons with second-order TOPP) times the path without
-    /// the speed bounds of the stops too.
-    pub timer: &'a PathTimer,
+    /// The time-optimal path timer, `None` for constant bounds only (the executor's tick
+    /// plans so, the table comes from [`refinement`](crate::refinement)). One without the
+    /// jerk bound ([`JerkBound::Off`], for comparisons with second-order TOPP) times the
+    /// path without the speed cap too.
+    pub timer: Option<&'a PathTimer>,
 }
 
 /// The parameters of a Cartesian move that do not depend on where the arm is.
@@ -596,10 +597,10 @@ fn cartesian_limits(command: &MotionCommand, length: f64, tcp: &TcpLimits) -> Pa
     }
 }
 
-/// The timing of a surveyed path: the time-optimal table of [`topp`] where the timer finds
-/// one faster than the double-S on the constant bounds `limits`, else that double-S (a
-/// failure of the timer is logged). Stops on the table's path use constant bounds valid up
-/// to its speed cap, and its override rate is one the reserve pays for at every point.
+/// The timing of a surveyed path: the time-optimal table of [`topp`] where the timer (if
+/// any) finds one faster than the double-S on the constant bounds `limits`, else that
+/// double-S (a failure of the timer is logged). The table's override rate is one the
+/// reserve pays for at every point.
 fn timing(
     command: &MotionCommand,
     survey: &Survey,
@@ -610,7 +611,11 @@ fn timing(
     reserve: f64,
 ) -> Result<Timing, LinearError> {
     let constant = Timing::plan(limits, reserve, command.duration_s);
-    let (table_limits, override_rate) = table_limits(command, survey, length, arm, reserve);
+    let Some(timer) = arm.timer else {
+        return Ok(constant?);
+    };
+    let (table_limits, override_rate) =
+        table_limits(command, survey, length, arm, reserve, timer.jerk());
     let fastest_constant = DoubleS::new(
         limits.velocity,
         (1.0 - reserve) * limits.acceleration,
@@ -618,7 +623,7 @@ fn timing(
         limits.jerk,
     )
     .duration();
-    let table = match arm.timer.time(samples, &table_limits, fastest_constant) {
+    let table = match timer.time(samples, &table_limits, fastest_constant) {
         Ok(table) if table.duration() < fastest_constant => table,
         Ok(_) | Err(topp::ToppError::NotFaster(_)) => return Ok(constant?),
         Err(e) => {
@@ -641,6 +646,7 @@ fn table_limits(
     length: f64,
     arm: &Arm<'_>,
     reserve: f64,
+    jerk: JerkBound,
 ) -> (ToppLimits, f64) {
     let cartesian = cartesian_limits(command, length, arm.tcp);
     let bounds = JointBounds::new(survey, arm.joints);
@@ -669,7 +675,7 @@ fn table_limits(
         braking: rate_d / rate,
         speed_cap: cap,
     };
-    let limits = match arm.timer.jerk() {
+    let limits = match jerk {
         JerkBound::Joints => limits,
         JerkBound::Off => ToppLimits {
             speed_cap: f64::INFINITY,
@@ -810,7 +816,7 @@ mod tests {
                 geometry: &self.robot.geometry,
                 joints: &self.joints,
                 tcp: &self.tcp,
-                timer: &self.timer,
+                timer: Some(&self.timer),
             }
         }
 

@@ -92,6 +92,12 @@ impl MoveQueue {
         (index < self.len).then(|| &self.slots[(self.head + index) % self.slots.len()])
     }
 
+    /// The `index`-th move from the front, to change it in place.
+    pub fn get_mut(&mut self, index: usize) -> Option<&mut QueuedMove> {
+        let slots = self.slots.len();
+        (index < self.len).then(|| &mut self.slots[(self.head + index) % slots])
+    }
+
     /// The front move, to change it in place.
     pub fn front_mut(&mut self) -> Option<&mut QueuedMove> {
         (self.len > 0).then(|| &mut self.slots[self.head])

@@ -18,6 +18,7 @@ use shared_types::srci::message::state;
 use tracing::{debug, info, warn};
 
 use crate::executor::Executor;
+use crate::refinement::ThreadRefiner;
 
 /// Longest wait for a servo tick before the shutdown flag is checked again.
 const WAKEUP_TIMEOUT: Duration = Duration::from_millis(20);
@@ -29,6 +30,8 @@ const COMMAND_BATCH: usize = 64;
 pub enum PlannerError {
     #[error(transparent)]
     Bus(#[from] BusError),
+    #[error("the table planning thread could not be started: {0}")]
+    TableThread(std::io::Error),
 }
 
 /// Runs the planner until `shutdown` becomes true.
@@ -44,7 +47,10 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), PlannerError> {
     let mut health = HealthReporter::new(&bus, Service::Planner, period_ns)?;
 
     let instance = process_instance();
-    let mut executor = Executor::new(config, instance);
+    // Tables of buffered lines take longer than the setpoint window: planned off the tick.
+    let capacity = 2 * usize::from(config.main.planner.queue_length);
+    let refiner = ThreadRefiner::spawn(config, capacity).map_err(PlannerError::TableThread)?;
+    let mut executor = Executor::with_refiner(config, instance, Box::new(refiner));
     let mut commands = [MotionCommand::new(MotionCommandKind::Reset); COMMAND_BATCH];
     let mut log = ChangeLog::default();
     info!(

@@ -765,7 +765,7 @@ fn emit(samples: &PathSamples, limits: &ToppLimits, rows: &Rows, sink: &mut impl
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use core::cell::Cell;
     use std::alloc::{GlobalAlloc, Layout, System};
@@ -799,7 +799,7 @@ mod tests {
     #[global_allocator]
     static ALLOCATOR: Counting = Counting;
 
-    pub(super) fn allocations() -> usize {
+    pub(crate) fn allocations() -> usize {
         ALLOCATIONS.with(Cell::get)
     }
 

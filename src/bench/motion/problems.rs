@@ -121,11 +121,20 @@ impl Robot {
     /// The arm with the path timer `timer`.
     pub fn arm_timed_by<'a>(&'a self, timer: &'a PathTimer) -> Arm<'a> {
         Arm {
+            timer: Some(timer),
+            ..self.arm_in_the_tick()
+        }
+    }
+
+    /// The arm as the executor's tick plans with it: constant bounds, the table comes
+    /// later from the planner's table thread.
+    pub fn arm_in_the_tick(&self) -> Arm<'_> {
+        Arm {
             kinematics: &self.kinematics,
             geometry: &self.geometry,
             joints: &self.limits,
             tcp: &self.tcp,
-            timer,
+            timer: None,
         }
     }
 }
@@ -195,19 +204,28 @@ impl LinearCase {
         command
     }
 
-    /// Our plan with the override reserve `reserve`; `None` if the TCP is already there.
+    /// Our plan with the override reserve `reserve`, as the table thread makes it; `None`
+    /// if the TCP is already there.
     pub fn plan(
         robot: &Robot,
         start: [f64; AXES],
         command: &MotionCommand,
         reserve: f64,
     ) -> Result<Option<LinearMove>, LinearError> {
-        Ok(
-            match LinearMove::plan(start, command, &robot.arm(), reserve)? {
-                LinearPlan::Move(m) => Some(m),
-                LinearPlan::Stationary(_) => None,
-            },
-        )
+        Self::plan_with(&robot.arm(), start, command, reserve)
+    }
+
+    /// Our plan on `arm`; `None` if the TCP is already there.
+    pub fn plan_with(
+        arm: &Arm<'_>,
+        start: [f64; AXES],
+        command: &MotionCommand,
+        reserve: f64,
+    ) -> Result<Option<LinearMove>, LinearError> {
+        Ok(match LinearMove::plan(start, command, arm, reserve)? {
+            LinearPlan::Move(m) => Some(m),
+            LinearPlan::Stationary(_) => None,
+        })
     }
 }
 

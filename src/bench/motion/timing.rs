@@ -37,7 +37,10 @@ pub struct Timings {
     /// `Kinematics::flange`.
     pub fk: CallTimes,
     pub plan_joint: CallTimes,
+    /// With the table, as the planner's table thread plans.
     pub plan_linear: CallTimes,
+    /// On constant bounds, as the executor's tick plans before the table is there.
+    pub plan_linear_tick: CallTimes,
     /// The reachability solve of every linear plan that called it (all its passes).
     pub topp: CallTimes,
     /// The conic problem's solve of every linear move (velocity and acceleration only) whose
@@ -99,6 +102,10 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
     let plan_linear = time_calls(&linear_commands, |(start, command)| {
         LinearCase::plan(robot, *start, command, robot.reserve)
     });
+    let tick_arm = robot.arm_in_the_tick();
+    let plan_linear_tick = time_calls(&linear_commands, |(start, command)| {
+        LinearCase::plan_with(&tick_arm, *start, command, robot.reserve)
+    });
     let topp = topp_solves(robot, &linear_commands);
     let conic = solver_times(problems.conic_solve_s.iter().copied());
     Timings {
@@ -107,6 +114,7 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
         fk,
         plan_joint,
         plan_linear,
+        plan_linear_tick,
         topp,
         conic,
     }

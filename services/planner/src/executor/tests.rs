@@ -29,10 +29,15 @@ struct Rig {
 
 impl Rig {
     fn new() -> Self {
+        Self::with(Executor::new(&config(), 0xABCD))
+    }
+
+    /// A rig around `executor`.
+    fn with(executor: Executor) -> Self {
         let cfg = config();
         let home = cfg.robot.home_deg.map(f64::to_radians);
         let mut rig = Self {
-            executor: Executor::new(&cfg, 0xABCD),
+            executor,
             feedback: ServoFeedback {
                 tick: 100,
                 ..ServoFeedback::at_rest(5, home, DriveState::Holding, 1_000_000)
@@ -1396,6 +1401,118 @@ fn a_lower_deceleration_rate_slows_only_the_end_of_the_move() {
         "{}",
         braking(&equal)
     );
+}
+
+/// The tables of buffered lines, planned off the tick, replace the constant bounds only
+/// where the servo has not been sent the move yet.
+mod tables {
+    use super::*;
+    use crate::profile::Profile;
+    use crate::refinement::{InlineRefiner, Refined, Refiner, TableRequest};
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    /// Plans at once but hands the tables out only once released: a slow planning thread.
+    struct HeldRefiner {
+        inner: InlineRefiner,
+        released: Arc<AtomicBool>,
+    }
+
+    impl Refiner for HeldRefiner {
+        fn request(&mut self, request: &TableRequest) {
+            self.inner.request(request);
+        }
+
+        fn take(&mut self) -> Option<Refined> {
+            if self.released.load(Ordering::Relaxed) {
+                self.inner.take()
+            } else {
+                None
+            }
+        }
+    }
+
+    fn held() -> (Rig, Arc<AtomicBool>) {
+        let released = Arc::new(AtomicBool::new(false));
+        let refiner = HeldRefiner {
+            inner: InlineRefiner::new(&config(), 8),
+            released: released.clone(),
+        };
+        let executor = Executor::with_refiner(&config(), 0xABCD, Box::new(refiner));
+        (Rig::with(executor), released)
+    }
+
+    /// Whether the running move of `rig` is timed by a table.
+    fn runs_on_table(rig: &Rig) -> bool {
+        match rig.executor.motion.phase {
+            Phase::Running(Running { plan, .. }) => {
+                matches!(plan.timing().profile, Profile::Table(_))
+            }
+            phase => panic!("not running: {phase:?}"),
+        }
+    }
+
+    /// Job 1 to [`target_a`], then a line (job 2) from there.
+    fn joint_move_then_line(rig: &mut Rig) -> MotionCommand {
+        let a = rig.move_to(1, target_a());
+        let mut line = rig.command(MotionCommandKind::MoveLinear, 2);
+        line.tool = tool();
+        line.pose = shifted(&tcp_of(&target_a()), SHIFT, TURN);
+        rig.step(&[a, line]);
+        line
+    }
+
+    #[test]
+    fn a_line_sent_to_a_standing_arm_starts_on_constant_bounds_and_keeps_them() {
+        let (mut rig, released) = held();
+        let c = rig.line_by(1, SHIFT, TURN);
+        rig.step(&[c]);
+        assert!(!runs_on_table(&rig));
+        released.store(true, Ordering::Relaxed);
+        rig.run_until(20_000, |r| r.is_final(1) || runs_on_table(r));
+        assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
+        rig.check_limits();
+        assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+    }
+
+    #[test]
+    fn a_line_buffered_behind_a_running_move_gets_its_table() {
+        let (mut rig, released) = held();
+        let line = joint_move_then_line(&mut rig);
+        released.store(true, Ordering::Relaxed);
+        rig.run_until(20_000, |r| r.executor.status().active_job == 2);
+        assert!(runs_on_table(&rig));
+        rig.run_until(20_000, |r| r.is_final(2));
+        assert_eq!(rig.final_state(2), Some((state::DONE, 0)));
+        assert!(
+            tcp_of(&rig.feedback.q)
+                .translation
+                .vector
+                .metric_distance(&pose::isometry(line.pose).translation.vector)
+                < 1e-6
+        );
+        rig.check_limits();
+        assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+    }
+
+    #[test]
+    fn a_table_ready_once_the_line_is_in_the_window_is_left_out() {
+        let (mut rig, released) = held();
+        joint_move_then_line(&mut rig);
+        // Job 1 ends within the window: job 2 starts in it.
+        rig.run_until(20_000, |r| match r.executor.motion.phase {
+            Phase::Running(Running { plan, tau, .. }) => {
+                plan.timing().profile.duration() - tau < 10.0 * DT
+            }
+            _ => false,
+        });
+        released.store(true, Ordering::Relaxed);
+        rig.run_until(20_000, |r| r.executor.status().active_job == 2);
+        assert!(!runs_on_table(&rig));
+        rig.run_until(20_000, |r| r.is_final(2));
+        assert_eq!(rig.final_state(2), Some((state::DONE, 0)));
+        rig.check_limits();
+    }
 }
 
 mod sequences {

@@ -1,0 +1,261 @@
+//! Time-optimal tables for buffered Cartesian moves, computed off the tick.
+//!
+//! The executor plans a MoveLinear or MoveCircular in its tick on constant bounds: the
+//! survey finds every error before the arm moves, in about a millisecond. The time-optimal
+//! table of the same path ([`topp`](crate::topp)) takes tens of milliseconds, longer than the
+//! setpoint window the servo holds, so the executor asks a [`Refiner`] for it. The refined
+//! plan replaces the buffered one if the move still starts where both were planned from and
+//! has not entered a setpoint window sent to the servo; otherwise the move runs on its
+//! constant bounds. So a line sent to a standing arm starts at once on constant bounds, and
+//! lines buffered behind a running move get their table.
+//!
+//! [`ThreadRefiner`] plans on a thread of its own (the planner process); [`InlineRefiner`]
+//! plans when asked (the executor's unit tests, where the tick has no deadline).
+
+use std::collections::VecDeque;
+use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
+
+use shared_types::config::{Config, JointLimitsRad};
+use shared_types::ipc::{AXES, MotionCommand};
+
+use crate::joint_move::move_limits;
+use crate::kinematics::{ArmGeometry, Kinematics};
+use crate::linear_move::{Arm, LinearMove, LinearPlan, TcpLimits};
+use crate::profile::Profile;
+use crate::topp::{JerkBound, PathTimer};
+
+/// A buffered Cartesian move to be timed by its table.
+#[derive(Debug, Clone, Copy)]
+pub struct TableRequest {
+    pub job: u32,
+    /// The joints the move was planned from.
+    pub start: [f64; AXES],
+    pub command: MotionCommand,
+}
+
+/// The plan of a [`TableRequest`], timed by its table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Refined {
+    pub job: u32,
+    pub start: [f64; AXES],
+    pub plan: LinearPlan,
+}
+
+/// Plans buffered Cartesian moves with their tables.
+pub trait Refiner: Send {
+    /// Asks for the table of `request`; without room the move keeps its constant bounds.
+    fn request(&mut self, request: &TableRequest);
+    /// A refined plan, if one is ready.
+    fn take(&mut self) -> Option<Refined>;
+}
+
+/// What timing a Cartesian move by its table needs: the robot, its limits and a timer.
+pub struct TablePlanner {
+    kinematics: Kinematics,
+    geometry: Option<ArmGeometry>,
+    limits: JointLimitsRad,
+    tcp: TcpLimits,
+    reserve: f64,
+    timer: PathTimer,
+}
+
+impl TablePlanner {
+    /// For the robot and planner settings of `config`.
+    pub fn new(config: &Config) -> Self {
+        Self {
+            kinematics: Kinematics::new(&config.robot.kinematics),
+            geometry: ArmGeometry::new(&config.robot.kinematics).ok(),
+            limits: config.robot.limits_rad(),
+            tcp: TcpLimits::from_config(&config.robot.cartesian),
+            reserve: config.main.planner.override_reserve,
+            timer: PathTimer::reachability(JerkBound::Joints),
+        }
+    }
+
+    /// The plan of `request` timed by its table, or `None` if it has none (the constant
+    /// bounds are as fast, or the move cannot be planned: the tick reported that already).
+    pub fn plan(&self, request: &TableRequest) -> Option<Refined> {
+        let limits = move_limits(&self.limits, &request.command);
+        let arm = Arm {
+            kinematics: &self.kinematics,
+            geometry: self.geometry.as_ref()?,
+            joints: &limits,
+            tcp: &self.tcp,
+            timer: Some(&self.timer),
+        };
+        let plan = LinearMove::plan(request.start, &request.command, &arm, self.reserve).ok()?;
+        match plan {
+            LinearPlan::Move(m) if matches!(m.timing().profile, Profile::Table(_)) => {
+                Some(Refined {
+                    job: request.job,
+                    start: request.start,
+                    plan,
+                })
+            }
+            _ => None,
+        }
+    }
+}
+
+/// Plans each request when it is made.
+pub struct InlineRefiner {
+    planner: TablePlanner,
+    ready: VecDeque<Refined>,
+}
+
+impl InlineRefiner {
+    /// Keeps up to `capacity` refined plans until they are taken.
+    pub fn new(config: &Config, capacity: usize) -> Self {
+        Self {
+            planner: TablePlanner::new(config),
+            ready: VecDeque::with_capacity(capacity),
+        }
+    }
+}
+
+impl Refiner for InlineRefiner {
+    fn request(&mut self, request: &TableRequest) {
+        // Beyond the capacity the move keeps its constant bounds: no allocation here.
+        if self.ready.len() < self.ready.capacity()
+            && let Some(refined) = self.planner.plan(request)
+        {
+            self.ready.push_back(refined);
+        }
+    }
+
+    fn take(&mut self) -> Option<Refined> {
+        self.ready.pop_front()
+    }
+}
+
+/// Plans on a thread of its own, fed and drained through bounded channels (their slots
+/// are allocated when they are made; sending and receiving in the tick never block).
+pub struct ThreadRefiner {
+    requests: SyncSender<TableRequest>,
+    results: Receiver<Refined>,
+}
+
+impl ThreadRefiner {
+    /// Starts the planning thread with room for `capacity` requests and as many results.
+    /// It ends when the refiner is dropped.
+    pub fn spawn(config: &Config, capacity: usize) -> std::io::Result<Self> {
+        let (requests, inbox) = mpsc::sync_channel::<TableRequest>(capacity);
+        let (outbox, results) = mpsc::sync_channel::<Refined>(capacity);
+        let planner = TablePlanner::new(config);
+        std::thread::Builder::new()
+            .name("planner-tables".into())
+            .spawn(move || {
+                for request in inbox {
+                    if let Some(refined) = planner.plan(&request)
+                        && outbox.send(refined).is_err()
+                    {
+                        return;
+                    }
+                }
+            })?;
+        Ok(Self { requests, results })
+    }
+}
+
+impl Refiner for ThreadRefiner {
+    fn request(&mut self, request: &TableRequest) {
+        match self.requests.try_send(*request) {
+            Ok(()) => {}
+            // Busy with as many lines as a sequence holds: this one keeps constant bounds.
+            Err(TrySendError::Full(_)) => {}
+            Err(TrySendError::Disconnected(_)) => {
+                tracing::error!("the table planning thread ended; lines keep constant bounds");
+            }
+        }
+    }
+
+    fn take(&mut self) -> Option<Refined> {
+        self.results.try_recv().ok()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Translation3, UnitQuaternion};
+    use shared_types::ipc::MotionCommandKind;
+    use shared_types::pose;
+    use std::time::{Duration, Instant};
+
+    fn test_config() -> Config {
+        Config::load(None).expect("embedded configuration")
+    }
+
+    /// A line of 0.19 m from the robot's home position.
+    fn request(config: &Config) -> TableRequest {
+        let start = config.robot.home_deg.map(f64::to_radians);
+        let kinematics = Kinematics::new(&config.robot.kinematics);
+        let here = kinematics.flange(&start);
+        let there = Translation3::new(0.1, -0.15, -0.05) * here * UnitQuaternion::identity();
+        let mut command = MotionCommand::new(MotionCommandKind::MoveLinear);
+        command.job = 7;
+        command.pose = pose::pose(&there);
+        TableRequest {
+            job: 7,
+            start,
+            command,
+        }
+    }
+
+    #[test]
+    fn the_thread_returns_the_plan_the_inline_refiner_makes() {
+        let config = test_config();
+        let r = request(&config);
+        let mut inline = InlineRefiner::new(&config, 4);
+        inline.request(&r);
+        let expected = inline.take().expect("a table for a 0.2 m line");
+        assert!(inline.take().is_none());
+        let mut threaded = ThreadRefiner::spawn(&config, 4).expect("thread");
+        threaded.request(&r);
+        let deadline = Instant::now() + Duration::from_secs(60);
+        let refined = loop {
+            if let Some(refined) = threaded.take() {
+                break refined;
+            }
+            assert!(Instant::now() < deadline, "no refined plan in 60 s");
+            std::thread::sleep(Duration::from_millis(5));
+        };
+        assert_eq!(refined, expected);
+        assert_eq!((refined.job, refined.start), (7, r.start));
+    }
+
+    #[test]
+    fn asking_and_taking_in_the_tick_allocates_nothing() {
+        let config = test_config();
+        let r = request(&config);
+        let mut threaded = ThreadRefiner::spawn(&config, 4).expect("thread");
+        let deadline = Instant::now() + Duration::from_secs(60);
+        let before = crate::topp::tests::allocations();
+        let mut taken = 0;
+        for _ in 0..3 {
+            threaded.request(&r);
+        }
+        while taken < 3 {
+            if threaded.take().is_some() {
+                taken += 1;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "only {taken} refined plans in 60 s"
+            );
+        }
+        // The counter is this thread's: the planning thread's own work is not in it.
+        assert_eq!(crate::topp::tests::allocations(), before);
+    }
+
+    #[test]
+    fn a_move_without_a_table_is_not_refined() {
+        let config = test_config();
+        let mut r = request(&config);
+        // Where it stands: nothing to time.
+        r.command.pose = pose::pose(&Kinematics::new(&config.robot.kinematics).flange(&r.start));
+        let mut inline = InlineRefiner::new(&config, 4);
+        inline.request(&r);
+        assert!(inline.take().is_none());
+    }
+}
