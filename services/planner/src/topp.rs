@@ -18,8 +18,9 @@
 //!   `|p'|·|a_k| + |p''|·b_e ≤ a_tcp` (exact on a line, conservative on an arc);
 //! - with different acceleration and deceleration rates the path acceleration is held to
 //!   their shares of what the joints allow tangentially; with equal rates these rows never bind;
-//! - `b ≤ V²` for the speed cap of [`ToppLimits::speed_cap`] (a stop with constant bounds
-//!   stays within the limits up to that speed);
+//! - `b ≤ V²` for the speed cap of [`ToppLimits::speed_cap`], and with the jerk bound
+//!   `|q''_i|·b ≤ curvature_share·a_i` at every point ([`ToppLimits::curvature_share`]):
+//!   both keep the jerk pass's cross term `3·q''·ṡ·s̈` small;
 //! - `b_0 = b_N = 0`.
 //!
 //! [`reachability`] solves it stage by stage (microseconds to a fraction of a millisecond)
@@ -131,6 +132,9 @@ pub struct ToppLimits {
     pub braking: f64,
     /// Largest `ṡ` anywhere, 1/s.
     pub speed_cap: f64,
+    /// Share of a joint's acceleration limit the curvature term `|q''|·ṡ²` may take at any
+    /// point when the jerk is bounded (infinite: no such bound).
+    pub curvature_share: f64,
 }
 
 /// Limits of 1 in every unit.
@@ -144,6 +148,7 @@ const UNIT_LIMITS: ToppLimits = ToppLimits {
     speed_up: 1.0,
     braking: 1.0,
     speed_cap: 1.0,
+    curvature_share: f64::INFINITY,
 };
 
 /// Whether the path jerk is bounded.
@@ -180,7 +185,7 @@ pub enum ToppError {
     NotFaster(f64),
 }
 
-/// What the timer spent on the last path.
+/// What a timer spent.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SolveReport {
     /// Passes (solves of the conic problem, forward passes of the reachability analysis).
@@ -197,7 +202,7 @@ enum Method {
 }
 
 /// A path timer: reachability analysis (the planner's) or the conic problem (the
-/// cross-check); what it spent on the last path is kept for the benchmark.
+/// cross-check); what it spent is summed up for the benchmark.
 pub struct PathTimer {
     method: Method,
     jerk: JerkBound,
@@ -256,14 +261,14 @@ impl PathTimer {
         limits: &ToppLimits,
         longest: f64,
     ) -> Result<TableProfile, ToppError> {
-        self.report.set(SolveReport::default());
+        let spent = self.report.get();
         match &self.method {
             Method::Reachability => {
                 let started = Instant::now();
                 let timed = reachability::time(samples, limits, self.jerk, longest);
                 self.report.set(SolveReport {
-                    passes: timed.as_ref().map_or(1, |(_, passes)| *passes),
-                    solve_s: started.elapsed().as_secs_f64(),
+                    passes: spent.passes + timed.as_ref().map_or(1, |(_, passes)| *passes),
+                    solve_s: spent.solve_s + started.elapsed().as_secs_f64(),
                 });
                 timed.map(|(table, _)| table)
             }
@@ -275,14 +280,17 @@ impl PathTimer {
                 let mut solver = cell.try_borrow_mut().map_err(|_| ToppError::Busy)?;
                 solver.report = SolveReport::default();
                 let table = solver.time(samples, limits, self.jerk);
-                self.report.set(solver.report);
+                self.report.set(SolveReport {
+                    passes: spent.passes + solver.report.passes,
+                    solve_s: spent.solve_s + solver.report.solve_s,
+                });
                 table
             }
         }
     }
 
-    /// What the timer spent on the last path (also on one that failed).
-    pub fn last_report(&self) -> SolveReport {
+    /// What the timer spent on all paths since it was made (failed ones too).
+    pub fn report(&self) -> SolveReport {
         self.report.get()
     }
 }
@@ -552,6 +560,10 @@ fn speed_limits(
             let third = largest(&|e| samples.third[e][i]);
             if jerk == JerkBound::Joints && third > MOVING {
                 v = v.min((THIRD_SHARE * limits.jerk[i] / third).cbrt());
+            }
+            let curvature = largest(&|e| samples.curvature[e][i]);
+            if jerk == JerkBound::Joints && curvature > MOVING {
+                v = v.min((limits.curvature_share * limits.acceleration[i] / curvature).sqrt());
             }
         }
         *b = v * v;

@@ -120,13 +120,13 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
     }
 }
 
-/// The solve time (s) of the last path `timer` timed; `None` if it has made no pass.
+/// The solve time (s) `timer` spent; `None` if it has made no pass.
 ///
-/// A plan may decide without its timer (a stationary path, one without constant stop
-/// bounds), and the timer's report then still holds the path before. So each measured plan
-/// gets a timer of its own, whose report is empty until the plan calls it.
+/// A plan may decide without its timer (a stationary path) or call it more than once (one
+/// table per candidate speed bound), and the timer sums up all it spent. So each measured
+/// plan gets a timer of its own, whose report is empty until the plan calls it.
 pub fn solve_time(timer: &PathTimer) -> Option<f64> {
-    let report = timer.last_report();
+    let report = timer.report();
     (report.passes > 0).then_some(report.solve_s)
 }
 

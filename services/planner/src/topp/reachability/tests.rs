@@ -75,6 +75,7 @@ fn cobot() -> ToppLimits {
         speed_up: 1.0,
         braking: 1.0,
         speed_cap: 20.0,
+        curvature_share: f64::INFINITY,
     }
 }
 
