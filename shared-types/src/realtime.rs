@@ -232,9 +232,72 @@ fn set_fifo(priority: u8) -> Result<(), Errno> {
     }
 }
 
+/// Gives the calling thread normal scheduling again, for a helper thread of a real-time
+/// service (threads inherit their creator's policy and CPU): SCHED_OTHER, and where the
+/// thread was pinned to one CPU of several, every other online CPU, so that its work never
+/// competes with the service's cycle.
+pub fn leave_realtime() -> Result<(), Errno> {
+    let param = libc::sched_param { sched_priority: 0 };
+    // SAFETY: pthread_self is the calling thread, and param is a valid sched_param.
+    let status =
+        unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_OTHER, &param) };
+    if status != 0 {
+        return Err(Errno(status));
+    }
+    // SAFETY: sysconf takes only a name.
+    let online = unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) };
+    let online = usize::try_from(online)
+        .unwrap_or(0)
+        .min(libc::CPU_SETSIZE as usize);
+    // SAFETY: the sets are written by the kernel or by CPU_SET within their size; pid 0 is
+    // the calling thread and the sizes are those of the sets passed.
+    unsafe {
+        let mut current: libc::cpu_set_t = core::mem::zeroed();
+        if libc::sched_getaffinity(0, core::mem::size_of::<libc::cpu_set_t>(), &mut current) != 0 {
+            return Err(Errno::last());
+        }
+        let pinned: Vec<usize> = (0..online)
+            .filter(|&cpu| libc::CPU_ISSET(cpu, &current))
+            .collect();
+        if let [cpu] = pinned[..]
+            && online > 1
+        {
+            let mut others: libc::cpu_set_t = core::mem::zeroed();
+            for other in (0..online).filter(|&other| other != cpu) {
+                libc::CPU_SET(other, &mut others);
+            }
+            if libc::sched_setaffinity(0, core::mem::size_of::<libc::cpu_set_t>(), &others) != 0 {
+                return Err(Errno::last());
+            }
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_helper_thread_leaves_a_pinned_cpu_and_runs_normally() {
+        let cpus = allowed_cpus();
+        let handle = std::thread::spawn(move || {
+            pin_to_cpu(cpus[0]).expect("pin");
+            leave_realtime().expect("leave");
+            // SAFETY: pid 0 is the calling thread.
+            let policy = unsafe { libc::sched_getscheduler(0) };
+            (policy, allowed_cpus())
+        });
+        let (policy, after) = handle.join().expect("thread");
+        assert_eq!(policy, libc::SCHED_OTHER);
+        // SAFETY: sysconf takes only a name.
+        if unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) } > 1 {
+            assert!(
+                !after.is_empty() && !after.contains(&allowed_cpus()[0]),
+                "{after:?}"
+            );
+        }
+    }
 
     fn settings(priority: u8, cpu: i16, lock_memory: bool) -> ThreadScheduling {
         ThreadScheduling {

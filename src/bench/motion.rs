@@ -300,9 +300,10 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
         ),
         format!(
             "solver rows: the path timer's own solve time (clarabel's for the conic problem) \
-             in the plans that called it, n counting those; TOPP-RA in {} repeats of every \
-             line as the executor plans it, the conic problem once per line as the set was \
-             planned; calls/s = solves per second of solve time",
+             in the plans that called it (both candidate speed bounds of a line), n counting \
+             those; TOPP-RA in {} repeats of every line as the table thread plans it, the conic \
+             problem once per line as the set was planned; calls/s = plans per second of solve \
+             time",
             timing::PLAN_REPEATS
         ),
         format!(

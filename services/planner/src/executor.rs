@@ -61,6 +61,8 @@ pub struct Executor {
     refiner: Box<dyn Refiner>,
     /// The jobs that start within the setpoint window sent last: their plans stay.
     window_starts: WindowStarts,
+    /// The number of the last table request.
+    table_requests: u64,
     /// The last guard before the servo: every point, committed or looked ahead, passes it.
     guard: SafetyFilter,
     /// The guard found a point outside the limits: the moves ended with an error and the
@@ -120,6 +122,7 @@ impl Executor {
             geometry: ArmGeometry::new(&config.robot.kinematics).ok(),
             refiner,
             window_starts: WindowStarts::default(),
+            table_requests: 0,
             guard: SafetyFilter::new(config.robot.limits_rad())
                 .expect("the safety filter's fixed problem layout is valid"),
             guard_stop: false,
@@ -351,6 +354,7 @@ impl Executor {
                 QueuedMove {
                     command,
                     linear: Some(plan),
+                    table_request: 0,
                 }
             })
         } else {
@@ -360,10 +364,12 @@ impl Executor {
                 .map_err(|e| e.code())
         };
         match planned {
-            Ok(queued) => {
+            Ok(mut queued) => {
                 if let Some(LinearPlan::Move(_)) = queued.linear {
+                    self.table_requests += 1;
+                    queued.table_request = self.table_requests;
                     self.refiner.request(&TableRequest {
-                        job,
+                        id: queued.table_request,
                         start,
                         command: queued.command,
                     });
@@ -501,10 +507,10 @@ impl Executor {
         })
     }
 
-    /// Puts the tables the refiner has ready into their buffered moves: only into a move that
-    /// still starts where the table was planned from, has not entered the setpoint window
-    /// sent last (what the servo holds must not change) and is not the decided blend of the
-    /// running move.
+    /// Puts the tables the refiner has ready into the buffered moves they were requested for:
+    /// only into a move that still starts where the table was planned from, has not entered
+    /// the setpoint window sent last (what the servo holds must not change) and is not the
+    /// decided blend of the running move.
     fn take_tables(&mut self) {
         let blended = match self.motion.phase {
             Phase::Running(Running {
@@ -514,17 +520,16 @@ impl Executor {
             _ => None,
         };
         while let Some(refined) = self.refiner.take() {
-            if self.window_starts.contains(refined.job) || blended == Some(refined.job) {
-                continue;
-            }
             for sequence in Sequence::BOTH {
                 let queue = self.sequences.queue_mut(sequence);
                 for index in 0..queue.len() {
                     if let Some(queued) = queue.get_mut(index)
-                        && queued.command.job == refined.job
+                        && queued.table_request == refined.id
                         && queued
                             .linear
-                            .is_some_and(|plan| plan.start() == &refined.start)
+                            .is_some_and(|plan| plan.start() == refined.plan.start())
+                        && !self.window_starts.contains(queued.command.job)
+                        && blended != Some(queued.command.job)
                     {
                         queued.linear = Some(refined.plan);
                     }
@@ -572,14 +577,8 @@ impl Executor {
                     if let Some(front) = self.sequences.queue_mut(sequence).front_mut() {
                         front.command.joints_rad = plan.target();
                         front.linear = Some(plan);
-                        // It starts now: the table serves a start from here again later.
-                        if let LinearPlan::Move(_) = plan {
-                            self.refiner.request(&TableRequest {
-                                job: command.job,
-                                start,
-                                command: front.command,
-                            });
-                        }
+                        // It starts now, within the window: a table would come too late.
+                        front.table_request = 0;
                     }
                     return;
                 }

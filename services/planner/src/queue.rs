@@ -11,6 +11,9 @@ pub struct QueuedMove {
     /// The command; for a linear move `joints_rad` holds the joints it ends in.
     pub command: MotionCommand,
     pub linear: Option<LinearPlan>,
+    /// The executor's number of the request for its table
+    /// ([`refinement`](crate::refinement)), 0 for none.
+    pub table_request: u64,
 }
 
 impl QueuedMove {
@@ -19,6 +22,7 @@ impl QueuedMove {
         Self {
             command,
             linear: None,
+            table_request: 0,
         }
     }
 }

@@ -27,17 +27,20 @@ use crate::topp::{JerkBound, PathTimer};
 /// A buffered Cartesian move to be timed by its table.
 #[derive(Debug, Clone, Copy)]
 pub struct TableRequest {
-    pub job: u32,
+    /// The executor's number of the request: job numbers come from the PLC and recur.
+    pub id: u64,
     /// The joints the move was planned from.
     pub start: [f64; AXES],
+    /// The move's command.
     pub command: MotionCommand,
 }
 
 /// The plan of a [`TableRequest`], timed by its table.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Refined {
-    pub job: u32,
-    pub start: [f64; AXES],
+    /// The request's number.
+    pub id: u64,
+    /// The plan, from the request's start.
     pub plan: LinearPlan,
 }
 
@@ -50,7 +53,7 @@ pub trait Refiner: Send {
 }
 
 /// What timing a Cartesian move by its table needs: the robot, its limits and a timer.
-pub struct TablePlanner {
+struct TablePlanner {
     kinematics: Kinematics,
     geometry: Option<ArmGeometry>,
     limits: JointLimitsRad,
@@ -61,7 +64,7 @@ pub struct TablePlanner {
 
 impl TablePlanner {
     /// For the robot and planner settings of `config`.
-    pub fn new(config: &Config) -> Self {
+    fn new(config: &Config) -> Self {
         Self {
             kinematics: Kinematics::new(&config.robot.kinematics),
             geometry: ArmGeometry::new(&config.robot.kinematics).ok(),
@@ -74,7 +77,7 @@ impl TablePlanner {
 
     /// The plan of `request` timed by its table, or `None` if it has none (the constant
     /// bounds are as fast, or the move cannot be planned: the tick reported that already).
-    pub fn plan(&self, request: &TableRequest) -> Option<Refined> {
+    fn plan(&self, request: &TableRequest) -> Option<Refined> {
         let limits = move_limits(&self.limits, &request.command);
         let arm = Arm {
             kinematics: &self.kinematics,
@@ -87,8 +90,7 @@ impl TablePlanner {
         match plan {
             LinearPlan::Move(m) if matches!(m.timing().profile, Profile::Table(_)) => {
                 Some(Refined {
-                    job: request.job,
-                    start: request.start,
+                    id: request.id,
                     plan,
                 })
             }
@@ -133,6 +135,8 @@ impl Refiner for InlineRefiner {
 pub struct ThreadRefiner {
     requests: SyncSender<TableRequest>,
     results: Receiver<Refined>,
+    /// The thread ended (logged once).
+    ended: bool,
 }
 
 impl ThreadRefiner {
@@ -145,6 +149,10 @@ impl ThreadRefiner {
         std::thread::Builder::new()
             .name("planner-tables".into())
             .spawn(move || {
+                // Inherited from the tick's thread: planning must never compete with it.
+                if let Err(errno) = shared_types::realtime::leave_realtime() {
+                    tracing::warn!(%errno, "the table planning thread keeps the tick's scheduling");
+                }
                 for request in inbox {
                     if let Some(refined) = planner.plan(&request)
                         && outbox.send(refined).is_err()
@@ -153,7 +161,11 @@ impl ThreadRefiner {
                     }
                 }
             })?;
-        Ok(Self { requests, results })
+        Ok(Self {
+            requests,
+            results,
+            ended: false,
+        })
     }
 }
 
@@ -164,7 +176,10 @@ impl Refiner for ThreadRefiner {
             // Busy with as many lines as a sequence holds: this one keeps constant bounds.
             Err(TrySendError::Full(_)) => {}
             Err(TrySendError::Disconnected(_)) => {
-                tracing::error!("the table planning thread ended; lines keep constant bounds");
+                if !self.ended {
+                    self.ended = true;
+                    tracing::error!("the table planning thread ended; lines keep constant bounds");
+                }
             }
         }
     }
@@ -196,7 +211,7 @@ mod tests {
         command.job = 7;
         command.pose = pose::pose(&there);
         TableRequest {
-            job: 7,
+            id: 3,
             start,
             command,
         }
@@ -221,7 +236,8 @@ mod tests {
             std::thread::sleep(Duration::from_millis(5));
         };
         assert_eq!(refined, expected);
-        assert_eq!((refined.job, refined.start), (7, r.start));
+        assert_eq!(refined.id, 3);
+        assert_eq!(refined.plan.start(), &r.start);
     }
 
     #[test]

@@ -5,8 +5,8 @@
 //! A time-optimal table ([`topp`](crate::topp)) runs at the limits the path allows at every
 //! point, so constant path bounds cannot stop it: where it is fast they would brake too
 //! weakly, and a stop near the end would have to pass it. Scaling the table's time instead
-//! never goes faster than the table at any point of the path, so a stop always ends on the
-//! path, at the latest where the table itself ends at rest.
+//! never goes faster than the table at any point of the path (σ ≤ 1 never grows), so a stop
+//! always ends on the path, at the latest where the table itself ends at rest.
 //!
 //! With the table's rates `q̇ₜ`, `q̈ₜ`, `q⃛ₜ` of a coordinate (a joint, or the TCP along its
 //! path) at the current profile time, the commanded rates are
@@ -20,9 +20,15 @@
 //! `|q⃛| ≤ J` for `|σ̈| ≤ (J − |σ³·q⃛ₜ + σ·σ̇·(2·q̈ₜ + q̈ᵥ)|)/|q̇ₜ|`. Every tick takes the tightest
 //! of these bounds over the coordinates (each limit times [`MARGIN`], for what changes within
 //! the tick) as the deceleration and jerk limits of a [`PathBrake`] of σ: its jerk is
-//! bang-bang, so σ and σ̇ reach 0 together. While the table itself runs at full jerk there
-//! is no jerk left to brake with and σ̇ keeps its value until there is; the table's own
-//! deceleration then still brings the arm to rest at its end.
+//! bang-bang, so σ and σ̇ reach 0 together where the limits allow it.
+//!
+//! Where the table's own jerk and the cross term leave room only for taking the deceleration
+//! back (the range above does not hold 0), it is taken back, but not past `σ̇ = 0`: σ never
+//! grows, so the arm is never sped up and never leaves the path, but at that point the jerk
+//! may exceed its limit by what the table takes beyond it; and a release that a shrinking
+//! range cuts short ends with a step of `σ̇·q̇ₜ` in the acceleration. The executor's tests on
+//! lines keep every limit; a stop with a guaranteed jerk would need the table planned with
+//! a share of the jerk held back, as the acceleration is held back for the override.
 
 use crate::brake::PathBrake;
 
@@ -34,11 +40,12 @@ pub const MARGIN: f64 = 0.9;
 /// Share of the jerk left at `σ = 0` a release of σ̇ plans with: the rest is for what the
 /// table's share still takes while σ falls to 0.
 pub const RELEASE_SHARE: f64 = 0.9;
-/// Largest `−σ̇` (1/s) and `|σ̈|` (1/s²) of a stop. Where the table's speed goes to 0 (at its
-/// end) the joint limits no longer bound them, and a σ̇ grown without bound there would
-/// have to be released in an instant at the end of the table. A stop from `σ = 1` at these
-/// bounds would take a tenth of a second: every joint limit binds long before.
+/// Largest `−σ̇` (1/s) of a stop. Where the table's speed goes to 0 (at its end) the joint
+/// limits no longer bound it, and a σ̇ grown without bound there would have to be released
+/// in an instant at the end of the table. A stop from `σ = 1` at this bound and
+/// [`MAX_SCALE_JERK`] would take a tenth of a second: every joint limit binds long before.
 pub const MAX_SCALE_DECELERATION: f64 = 10.0;
+/// Largest `|σ̈|` (1/s²) of a stop, for the same reason.
 pub const MAX_SCALE_JERK: f64 = 200.0;
 /// A stop runs the table out at its time scale if the table ends within this many times the
 /// time a stop of the time scale would take: the table's end then is its own stop, braking
@@ -65,7 +72,9 @@ pub struct TableRates {
 /// The acceleration and jerk limits of the coordinates during a stop (rates applied).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScaleLimits {
+    /// rad/s² for the joints, m/s² for the TCP.
     pub acceleration: [f64; COORDINATES],
+    /// rad/s³ for the joints, m/s³ for the TCP.
     pub jerk: [f64; COORDINATES],
 }
 
@@ -123,7 +132,9 @@ impl ScaleBrake {
                 let sigma = self.sigma().max(f64::MIN_POSITIVE);
                 let left = (self.duration - self.tau()) / sigma;
                 let braking = sigma / b.deceleration + b.deceleration / b.release_jerk;
-                let run_out = left <= RUN_OUT_FACTOR * braking;
+                // Without any deceleration now (the table at its own limits) the estimate
+                // says nothing: the stop brakes as soon as it can.
+                let run_out = b.deceleration > 0.0 && left <= RUN_OUT_FACTOR * braking;
                 if run_out {
                     // The time scale is held from here (as an override step would hold it).
                     self.brake.a = 0.0;
@@ -172,8 +183,8 @@ fn bounds(
             table.velocity_rate[i],
         );
         let used = sigma.powi(3) * table.jerk[i] + sigma * sigma_rate * (2.0 * a + a_v);
-        // Over the tick q̇ₜ grows by σ·dt·q̈ᵥ, and the jerk's own rate adds σ̇²·(2q̈ₜ + q̈ᵥ)
-        // and σ·σ̈·(q̈ₜ + q̈ᵥ) to it.
+        // To first order over the tick: σ̈'s coefficient q̇ₜ grows by σ·dt·(q̈ₜ + q̈ᵥ) (its
+        // own change and that of the cross term), and the cross term by σ̇²·dt·(2q̈ₜ + q̈ᵥ).
         let end = (
             v + dt * sigma * (a + a_v),
             used + dt * sigma_rate * sigma_rate * (2.0 * a + a_v),
@@ -186,6 +197,12 @@ fn bounds(
             let j = MARGIN * limits.jerk[i];
             bounds.release_jerk = bounds.release_jerk.min(RELEASE_SHARE * j / v.abs());
         }
+    }
+    // Where the table's own jerk leaves room only for taking the deceleration back, it is
+    // taken back, but never so far that σ would grow again: the arm is never sped up.
+    if sigma_rate >= 0.0 {
+        bounds.jerk_low = bounds.jerk_low.min(0.0);
+        bounds.jerk_high = bounds.jerk_high.max(0.0);
     }
     bounds
 }
@@ -308,6 +325,20 @@ mod tests {
         assert_eq!(b.jerk_high, 0.0);
         assert!((b.jerk_low + 2.0 * MARGIN * 5.0).abs() < 1e-12);
         assert!((b.deceleration - MARGIN * 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_table_taking_its_acceleration_back_at_full_jerk_is_never_sped_up() {
+        // The table's jerk leaves only σ̈ > 0: taken, it would make σ grow beyond 1.
+        let table = TableRates {
+            jerk: [-2.0 * MARGIN * 5.0; COORDINATES],
+            ..cruise(1.0)
+        };
+        let mut b = ScaleBrake::new(0.0, 1.0, 0.0, 100.0, limits(2.0, 5.0));
+        for _ in 0..100 {
+            b.advance(DT, &table);
+            assert!(b.sigma() <= 1.0 && b.sigma_rate() <= 0.0, "{b:?}");
+        }
     }
 
     #[test]

@@ -1412,10 +1412,12 @@ mod tables {
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
 
-    /// Plans at once but hands the tables out only once released: a slow planning thread.
+    /// Plans at once but hands the tables out only once released, and no more than
+    /// `left` of them: a slow planning thread.
     struct HeldRefiner {
         inner: InlineRefiner,
         released: Arc<AtomicBool>,
+        left: usize,
     }
 
     impl Refiner for HeldRefiner {
@@ -1424,7 +1426,8 @@ mod tables {
         }
 
         fn take(&mut self) -> Option<Refined> {
-            if self.released.load(Ordering::Relaxed) {
+            if self.released.load(Ordering::Relaxed) && self.left > 0 {
+                self.left -= 1;
                 self.inner.take()
             } else {
                 None
@@ -1433,10 +1436,16 @@ mod tables {
     }
 
     fn held() -> (Rig, Arc<AtomicBool>) {
+        held_for(usize::MAX)
+    }
+
+    /// A rig whose refiner hands out `tables` tables at most.
+    fn held_for(tables: usize) -> (Rig, Arc<AtomicBool>) {
         let released = Arc::new(AtomicBool::new(false));
         let refiner = HeldRefiner {
             inner: InlineRefiner::new(&config(), 8),
             released: released.clone(),
+            left: tables,
         };
         let executor = Executor::with_refiner(&config(), 0xABCD, Box::new(refiner));
         (Rig::with(executor), released)
@@ -1493,6 +1502,38 @@ mod tables {
         );
         rig.check_limits();
         assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+    }
+
+    #[test]
+    fn a_late_table_of_an_aborted_line_never_goes_into_a_new_one_of_the_same_job() {
+        let (mut rig, released) = held_for(1);
+        joint_move_then_line(&mut rig);
+        rig.run_until(20_000, |r| r.executor.status().active_progress > 20.0);
+        let stop = rig.command(MotionCommandKind::Stop, 3);
+        rig.step(&[stop]);
+        rig.run_until(20_000, |r| r.is_final(3));
+        // The PLC sends job numbers again: the same job, the same start, another target.
+        let back = rig.move_to(4, target_a());
+        let mut line = rig.command(MotionCommandKind::MoveLinear, 2);
+        line.tool = tool();
+        line.pose = shifted(&tcp_of(&target_a()), [-0.1, 0.05, 0.05], [0.0; 3]);
+        rig.step(&[back, line]);
+        // Only the aborted line's table is ready when the refiner gives out.
+        released.store(true, Ordering::Relaxed);
+        rig.run_until(20_000, |r| {
+            r.events
+                .iter()
+                .filter(|e| e.job == 2 && e.state == state::DONE)
+                .count()
+                > 0
+        });
+        assert!(
+            tcp_of(&rig.feedback.q)
+                .translation
+                .vector
+                .metric_distance(&pose::isometry(line.pose).translation.vector)
+                < 1e-6
+        );
     }
 
     #[test]
