@@ -1080,7 +1080,7 @@ mod linear {
         rig.check_limits();
     }
 
-    fn assert_tcp_at(q: &[f64; AXES], pose: [f64; 6]) {
+    pub(super) fn assert_tcp_at(q: &[f64; AXES], pose: [f64; 6]) {
         let (reached, target) = (tcp_of(q), pose::isometry(pose));
         assert!((reached.translation.vector - target.translation.vector).norm() < 1e-9);
         assert!(reached.rotation.angle_to(&target.rotation) < 1e-9);
@@ -1493,13 +1493,7 @@ mod tables {
         assert!(runs_on_table(&rig));
         rig.run_until(20_000, |r| r.is_final(2));
         assert_eq!(rig.final_state(2), Some((state::DONE, 0)));
-        assert!(
-            tcp_of(&rig.feedback.q)
-                .translation
-                .vector
-                .metric_distance(&pose::isometry(line.pose).translation.vector)
-                < 1e-6
-        );
+        super::linear::assert_tcp_at(&rig.feedback.q, line.pose);
         rig.check_limits();
         assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
     }
@@ -1527,13 +1521,7 @@ mod tables {
                 .count()
                 > 0
         });
-        assert!(
-            tcp_of(&rig.feedback.q)
-                .translation
-                .vector
-                .metric_distance(&pose::isometry(line.pose).translation.vector)
-                < 1e-6
-        );
+        super::linear::assert_tcp_at(&rig.feedback.q, line.pose);
     }
 
     #[test]
