@@ -509,6 +509,12 @@ impl LinearMove {
         self.line.tcp(s)
     }
 
+    /// `|dp/ds|` and `|d²p/ds²|` (m) of the TCP's position at path position `s`: its speed
+    /// along the path and (on an arc) its centripetal acceleration per unit `ṡ` and `ṡ²`.
+    pub fn tcp_path_derivatives(&self, s: f64) -> (f64, f64) {
+        self.line.tcp_derivatives(s)
+    }
+
     /// The length (m) of the TCP's path; `(1 − s)·length` is left at path position `s`.
     pub fn length(&self) -> f64 {
         self.line.path.length()

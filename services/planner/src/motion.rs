@@ -80,26 +80,31 @@ impl Path {
         }
     }
 
-    /// The rates of the joints and the TCP along the path (|p'| is the length of lines and
-    /// arcs alike) on the unscaled profile at time `tau`, next to `previous`; the rates of
+    /// The rates of the joints and the TCP along the path (and the TCP's acceleration across
+    /// it on an arc) on the unscaled profile at time `tau`, next to `previous`; the rates of
     /// velocity and acceleration are their changes over the following `step` s (the
     /// preceding one at the profile's end, where the profile stands).
     pub fn table_rates(&self, tau: f64, step: f64, previous: &[f64; AXES]) -> TableRates {
-        let length = match self {
-            Self::Joint(_) => 0.0,
-            Self::Linear(m) => m.length(),
-        };
         let profile = &self.timing().profile;
+        // |p'| and |p''| of the TCP's path at s.
+        let tcp = |s: f64| match self {
+            Self::Joint(_) => (0.0, 0.0),
+            Self::Linear(m) => m.tcp_path_derivatives(s),
+        };
         let at = |tau: f64| {
             let (s, sd, sdd) = profile.eval(tau);
             let point = self.point(s, sd, sdd, previous);
-            let mut velocity = [length * sd; COORDINATES];
-            let mut acceleration = [length * sdd; COORDINATES];
+            let (speed, _) = tcp(s);
+            let mut velocity = [speed * sd; COORDINATES];
+            let mut acceleration = [speed * sdd; COORDINATES];
             velocity[..AXES].copy_from_slice(&point.qd);
             acceleration[..AXES].copy_from_slice(&point.qdd);
             (velocity, acceleration)
         };
         let (velocity, acceleration) = at(tau);
+        let (s, sd, _) = profile.eval(tau);
+        let mut normal = [0.0; COORDINATES];
+        normal[AXES] = tcp(s).1 * sd * sd;
         let step = if tau + step <= profile.duration() {
             step
         } else {
@@ -114,6 +119,7 @@ impl Path {
             jerk: rate(&acceleration, &acceleration_next),
             velocity,
             acceleration,
+            normal,
         }
     }
 }

@@ -67,6 +67,9 @@ pub struct TableRates {
     pub velocity_rate: [f64; COORDINATES],
     /// `q⃛ₜ = d(q̈ₜ)/dτ` (rad/s³, m/s³).
     pub jerk: [f64; COORDINATES],
+    /// The acceleration across the path that takes its share of a coordinate's limit (the
+    /// TCP's centripetal `|p''|·ṡₜ²` on an arc, 0 for the joints); it scales with σ².
+    pub normal: [f64; COORDINATES],
 }
 
 /// The acceleration and jerk limits of the coordinates during a stop (rates applied).
@@ -189,12 +192,13 @@ fn bounds(
             v + dt * sigma * (a + a_v),
             used + dt * sigma_rate * sigma_rate * (2.0 * a + a_v),
         );
+        let acceleration_limit = MARGIN * limits.acceleration[i] - sigma * sigma * table.normal[i];
+        let j = MARGIN * limits.jerk[i];
         for (coefficient, used) in [(v, used), end] {
-            bounds.keep(coefficient, a, used, sigma, limits, i);
+            bounds.keep(coefficient, a, used, sigma, acceleration_limit, j);
         }
         if v.abs() > MOVING {
             // As σ → 0 the table's share `used` vanishes: what is left for σ̈ then.
-            let j = MARGIN * limits.jerk[i];
             bounds.release_jerk = bounds.release_jerk.min(RELEASE_SHARE * j / v.abs());
         }
     }
@@ -220,25 +224,25 @@ struct Bounds {
 }
 
 impl Bounds {
-    /// Narrows the bounds to keep coordinate `i` within its limits where σ̇ and σ̈ act on it
-    /// with `coefficient` (`q̇ₜ`), the table's acceleration is `acceleration` and the jerk
-    /// without σ̈ is `used`: `|σ²·q̈ₜ − d·q̇ₜ| ≤ A` and `|used + σ̈·q̇ₜ| ≤ J`.
+    /// Narrows the bounds to keep a coordinate within the acceleration limit `a_limit` and
+    /// the jerk limit `j` where σ̇ and σ̈ act on it with `coefficient` (`q̇ₜ`), the table's
+    /// acceleration is `acceleration` and the jerk without σ̈ is `used`:
+    /// `|σ²·q̈ₜ − d·q̇ₜ| ≤ a_limit` and `|used + σ̈·q̇ₜ| ≤ j`.
     fn keep(
         &mut self,
         coefficient: f64,
         acceleration: f64,
         used: f64,
         sigma: f64,
-        limits: &ScaleLimits,
-        i: usize,
+        a_limit: f64,
+        j: f64,
     ) {
         let v = coefficient;
         if v.abs() <= MOVING {
             return;
         }
-        let left = MARGIN * limits.acceleration[i] + v.signum() * sigma * sigma * acceleration;
+        let left = a_limit + v.signum() * sigma * sigma * acceleration;
         self.deceleration = self.deceleration.min(left.max(0.0) / v.abs());
-        let j = MARGIN * limits.jerk[i];
         let (x, y) = ((-j - used) / v, (j - used) / v);
         self.jerk_low = self.jerk_low.max(x.min(y));
         self.jerk_high = self.jerk_high.min(x.max(y));
@@ -265,6 +269,7 @@ mod tests {
             acceleration: [0.0; COORDINATES],
             velocity_rate: [0.0; COORDINATES],
             jerk: [0.0; COORDINATES],
+            normal: [0.0; COORDINATES],
         }
     }
 
@@ -315,16 +320,27 @@ mod tests {
     #[test]
     fn while_the_table_uses_the_full_jerk_the_time_scale_may_only_ease_it() {
         let table = TableRates {
-            velocity: [1.0; COORDINATES],
-            acceleration: [0.0; COORDINATES],
-            velocity_rate: [0.0; COORDINATES],
             jerk: [MARGIN * 5.0; COORDINATES],
+            ..cruise(1.0)
         };
         let b = bounds(&table, &limits(2.0, 5.0), 1.0, 0.0, DT);
         // The table's jerk is MARGIN·J: σ̈ may only take it back.
         assert_eq!(b.jerk_high, 0.0);
         assert!((b.jerk_low + 2.0 * MARGIN * 5.0).abs() < 1e-12);
         assert!((b.deceleration - MARGIN * 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_centripetal_acceleration_on_an_arc_leaves_the_tcp_less_to_brake_with() {
+        let mut table = cruise(1.0);
+        table.normal[COORDINATES - 1] = 0.5;
+        let mut l = limits(2.0, 5.0);
+        // Only the TCP's limit binds.
+        l.acceleration[..COORDINATES - 1].fill(100.0);
+        let at = |sigma: f64| bounds(&table, &l, sigma, 0.0, DT).deceleration;
+        assert!((at(1.0) - (MARGIN * 2.0 - 0.5)).abs() < 1e-12);
+        // The centripetal part falls with σ².
+        assert!((at(0.5) - (MARGIN * 2.0 - 0.125)).abs() < 1e-12);
     }
 
     #[test]
