@@ -232,10 +232,10 @@ fn set_fifo(priority: u8) -> Result<(), Errno> {
     }
 }
 
-/// Gives the calling thread normal scheduling again, for a helper thread of a real-time
-/// service (threads inherit their creator's policy and CPU): SCHED_OTHER, and where the
-/// thread was pinned to one CPU of several, every other online CPU, so that its work never
-/// competes with the service's cycle.
+/// Makes the calling thread a background thread of a real-time service (threads inherit
+/// their creator's policy and CPU): SCHED_OTHER at the lowest priority (nice 19), and where
+/// the thread was pinned to one CPU of several, every other online CPU, so that its work
+/// never competes with the service's cycle nor with the other services.
 pub fn leave_realtime() -> Result<(), Errno> {
     let param = libc::sched_param { sched_priority: 0 };
     // SAFETY: pthread_self is the calling thread, and param is a valid sched_param.
@@ -243,6 +243,15 @@ pub fn leave_realtime() -> Result<(), Errno> {
         unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_OTHER, &param) };
     if status != 0 {
         return Err(Errno(status));
+    }
+    // SAFETY: gettid takes nothing; setpriority with a thread id sets that thread's nice
+    // value on Linux.
+    let status = unsafe {
+        let tid = libc::gettid();
+        libc::setpriority(libc::PRIO_PROCESS, tid as libc::id_t, 19)
+    };
+    if status != 0 {
+        return Err(Errno::last());
     }
     // SAFETY: sysconf takes only a name.
     let online = unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) };
@@ -284,12 +293,19 @@ mod tests {
         let handle = std::thread::spawn(move || {
             pin_to_cpu(cpus[0]).expect("pin");
             leave_realtime().expect("leave");
-            // SAFETY: pid 0 is the calling thread.
-            let policy = unsafe { libc::sched_getscheduler(0) };
-            (policy, allowed_cpus())
+            // SAFETY: pid 0 is the calling thread; getpriority of a thread id reads that
+            // thread's nice value.
+            let (policy, nice) = unsafe {
+                (
+                    libc::sched_getscheduler(0),
+                    libc::getpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t),
+                )
+            };
+            (policy, nice, allowed_cpus())
         });
-        let (policy, after) = handle.join().expect("thread");
+        let (policy, nice, after) = handle.join().expect("thread");
         assert_eq!(policy, libc::SCHED_OTHER);
+        assert_eq!(nice, 19);
         // SAFETY: sysconf takes only a name.
         if unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) } > 1 {
             assert!(
