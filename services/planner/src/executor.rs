@@ -747,6 +747,11 @@ impl Executor {
                 self.motion.holds.set(sequence, false);
             }
         }
+        if scope == MotionSequence::All && reason == code::ABORTED_BY_GROUP_STOP {
+            // A GroupStop of both sequences leaves no buffered move: the tables asked for
+            // are of no use.
+            self.refiner.forget(self.table_requests);
+        }
     }
 
     /// Ends the running and every buffered move of both sequences with `state` and
@@ -762,6 +767,7 @@ impl Executor {
             }
             self.motion.holds.set(sequence, false);
         }
+        self.refiner.forget(self.table_requests);
     }
 
     /// Gives up commanding the servo until the arm stands still again. Moves in flight

@@ -13,6 +13,8 @@
 //! plans when asked (the executor's unit tests, where the tick has no deadline).
 
 use std::collections::VecDeque;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
 
 use shared_types::config::{Config, JointLimitsRad};
@@ -50,6 +52,9 @@ pub trait Refiner: Send {
     fn request(&mut self, request: &TableRequest);
     /// A refined plan, if one is ready.
     fn take(&mut self) -> Option<Refined>;
+    /// The requests numbered up to `through` are of no use any more (their moves ended):
+    /// they are neither planned nor handed out.
+    fn forget(&mut self, through: u64);
 }
 
 /// What timing a Cartesian move by its table needs: the robot, its limits and a timer.
@@ -128,6 +133,10 @@ impl Refiner for InlineRefiner {
     fn take(&mut self) -> Option<Refined> {
         self.ready.pop_front()
     }
+
+    fn forget(&mut self, through: u64) {
+        self.ready.retain(|refined| refined.id > through);
+    }
 }
 
 /// Plans on a thread of its own, fed and drained through bounded channels (their slots
@@ -135,6 +144,10 @@ impl Refiner for InlineRefiner {
 pub struct ThreadRefiner {
     requests: SyncSender<TableRequest>,
     results: Receiver<Refined>,
+    /// Requests up to this number are skipped (shared with the thread).
+    forgotten: Arc<AtomicU64>,
+    /// Room of each channel.
+    capacity: usize,
     /// The thread ended (logged once).
     ended: bool,
 }
@@ -146,6 +159,8 @@ impl ThreadRefiner {
         let (requests, inbox) = mpsc::sync_channel::<TableRequest>(capacity);
         let (outbox, results) = mpsc::sync_channel::<Refined>(capacity);
         let planner = TablePlanner::new(config);
+        let forgotten = Arc::new(AtomicU64::new(0));
+        let skip = Arc::clone(&forgotten);
         std::thread::Builder::new()
             .name("planner-tables".into())
             .spawn(move || {
@@ -154,6 +169,9 @@ impl ThreadRefiner {
                     tracing::warn!(%errno, "the table planning thread keeps the tick's scheduling");
                 }
                 for request in inbox {
+                    if request.id <= skip.load(Ordering::Relaxed) {
+                        continue;
+                    }
                     if let Some(refined) = planner.plan(&request)
                         && outbox.send(refined).is_err()
                     {
@@ -164,6 +182,8 @@ impl ThreadRefiner {
         Ok(Self {
             requests,
             results,
+            forgotten,
+            capacity,
             ended: false,
         })
     }
@@ -185,7 +205,20 @@ impl Refiner for ThreadRefiner {
     }
 
     fn take(&mut self) -> Option<Refined> {
-        self.results.try_recv().ok()
+        let forgotten = self.forgotten.load(Ordering::Relaxed);
+        // Bounded by the channel's capacity: it holds no more results.
+        for _ in 0..=self.capacity {
+            match self.results.try_recv() {
+                Ok(refined) if refined.id <= forgotten => {}
+                Ok(refined) => return Some(refined),
+                Err(_) => return None,
+            }
+        }
+        None
+    }
+
+    fn forget(&mut self, through: u64) {
+        self.forgotten.fetch_max(through, Ordering::Relaxed);
     }
 }
 
@@ -262,6 +295,32 @@ mod tests {
         }
         // The counter is this thread's: the planning thread's own work is not in it.
         assert_eq!(crate::topp::tests::allocations(), before);
+    }
+
+    #[test]
+    fn forgotten_requests_are_neither_planned_nor_handed_out() {
+        let config = test_config();
+        let r = request(&config);
+        let mut inline = InlineRefiner::new(&config, 4);
+        let mut threaded = ThreadRefiner::spawn(&config, 4).expect("thread");
+        for id in 1..=3 {
+            let numbered = TableRequest { id, ..r };
+            inline.request(&numbered);
+            threaded.request(&numbered);
+        }
+        inline.forget(2);
+        threaded.forget(2);
+        assert_eq!(inline.take().map(|t| t.id), Some(3));
+        assert!(inline.take().is_none());
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            if let Some(refined) = threaded.take() {
+                assert_eq!(refined.id, 3);
+                break;
+            }
+            assert!(Instant::now() < deadline, "no refined plan in 60 s");
+            std::thread::sleep(Duration::from_millis(5));
+        }
     }
 
     #[test]

@@ -1433,6 +1433,10 @@ mod tables {
                 None
             }
         }
+
+        fn forget(&mut self, through: u64) {
+            self.inner.forget(through);
+        }
     }
 
     fn held() -> (Rig, Arc<AtomicBool>) {
@@ -1503,7 +1507,9 @@ mod tables {
         let (mut rig, released) = held_for(1);
         joint_move_then_line(&mut rig);
         rig.run_until(20_000, |r| r.executor.status().active_progress > 20.0);
-        let stop = rig.command(MotionCommandKind::Stop, 3);
+        // A stop of the primary sequence alone: the requests of the other one stay wanted.
+        let mut stop = rig.command(MotionCommandKind::Stop, 3);
+        stop.sequence = MotionSequence::Primary as u8;
         rig.step(&[stop]);
         rig.run_until(20_000, |r| r.is_final(3));
         // The PLC sends job numbers again: the same job, the same start, another target.
