@@ -165,7 +165,7 @@ impl ThreadRefiner {
             .name("planner-tables".into())
             .spawn(move || {
                 // Inherited from the tick's thread: planning must never compete with it.
-                if let Err(errno) = shared_types::realtime::leave_realtime() {
+                if let Err(errno) = shared_types::realtime::make_background() {
                     tracing::warn!(%errno, "the table planning thread keeps the tick's scheduling");
                 }
                 for request in inbox {
