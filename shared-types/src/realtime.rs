@@ -233,17 +233,27 @@ fn set_fifo(priority: u8) -> Result<(), Errno> {
 }
 
 /// Makes the calling thread a background thread of a real-time service (threads inherit
-/// their creator's policy and CPU): SCHED_IDLE, which runs only on a CPU nothing else wants
-/// and yields it at once, and where the thread was pinned to one CPU of several, every
-/// other online CPU, so that its work never delays the service's cycle nor the other
-/// services.
+/// their creator's policy and CPU): SCHED_OTHER at the lowest priority (nice 19), and where
+/// the thread was pinned to one CPU of several, every other online CPU, so that its work
+/// never delays the service's cycle. Not SCHED_IDLE: on a busy machine such a thread may not
+/// run for long, and any lock it holds (a log stream's) would stall the threads waiting for
+/// it.
 pub fn make_background() -> Result<(), Errno> {
     let param = libc::sched_param { sched_priority: 0 };
     // SAFETY: pthread_self is the calling thread, and param is a valid sched_param.
     let status =
-        unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_IDLE, &param) };
+        unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_OTHER, &param) };
     if status != 0 {
         return Err(Errno(status));
+    }
+    // SAFETY: gettid takes nothing; setpriority with a thread id sets that thread's nice
+    // value on Linux.
+    let status = unsafe {
+        let tid = libc::gettid();
+        libc::setpriority(libc::PRIO_PROCESS, tid as libc::id_t, 19)
+    };
+    if status != 0 {
+        return Err(Errno::last());
     }
     // SAFETY: sysconf takes only a name.
     let online = unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) };
@@ -280,17 +290,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_background_thread_leaves_a_pinned_cpu_and_runs_when_nothing_else_does() {
+    fn a_background_thread_leaves_a_pinned_cpu_and_runs_at_the_lowest_priority() {
         let cpus = allowed_cpus();
         let handle = std::thread::spawn(move || {
             pin_to_cpu(cpus[0]).expect("pin");
             make_background().expect("background");
-            // SAFETY: pid 0 is the calling thread.
-            let policy = unsafe { libc::sched_getscheduler(0) };
-            (policy, allowed_cpus())
+            // SAFETY: pid 0 is the calling thread; getpriority of a thread id reads that
+            // thread's nice value.
+            let (policy, nice) = unsafe {
+                (
+                    libc::sched_getscheduler(0),
+                    libc::getpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t),
+                )
+            };
+            (policy, nice, allowed_cpus())
         });
-        let (policy, after) = handle.join().expect("thread");
-        assert_eq!(policy, libc::SCHED_IDLE);
+        let (policy, nice, after) = handle.join().expect("thread");
+        assert_eq!((policy, nice), (libc::SCHED_OTHER, 19));
         // SAFETY: sysconf takes only a name.
         if unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) } > 1 {
             assert!(

@@ -15,7 +15,8 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
+use std::sync::mpsc::{self, Receiver, SyncSender, TryRecvError, TrySendError};
+use std::time::Duration;
 
 use shared_types::config::{Config, JointLimitsRad};
 use shared_types::ipc::{AXES, MotionCommand};
@@ -168,16 +169,7 @@ impl ThreadRefiner {
                 if let Err(errno) = shared_types::realtime::make_background() {
                     tracing::warn!(%errno, "the table planning thread keeps the tick's scheduling");
                 }
-                for request in inbox {
-                    if request.id <= skip.load(Ordering::Relaxed) {
-                        continue;
-                    }
-                    if let Some(refined) = planner.plan(&request)
-                        && outbox.send(refined).is_err()
-                    {
-                        return;
-                    }
-                }
+                serve(&planner, &inbox, &outbox, &skip);
             })?;
         Ok(Self {
             requests,
@@ -186,6 +178,46 @@ impl ThreadRefiner {
             capacity,
             ended: false,
         })
+    }
+}
+
+/// How long the planning thread sleeps when it has nothing to do or no room for a result.
+const IDLE_WAIT: Duration = Duration::from_millis(2);
+
+/// The planning thread's loop. It never blocks on a channel: a thread blocked in `recv` or
+/// `send` registers with the channel under a lock, which the tick's `try_send`/`try_recv`
+/// would then take too, and a preempted background thread holding it would stall the tick.
+fn serve(
+    planner: &TablePlanner,
+    inbox: &Receiver<TableRequest>,
+    outbox: &SyncSender<Refined>,
+    forgotten: &AtomicU64,
+) {
+    loop {
+        let request = match inbox.try_recv() {
+            Ok(request) => request,
+            Err(TryRecvError::Empty) => {
+                std::thread::sleep(IDLE_WAIT);
+                continue;
+            }
+            Err(TryRecvError::Disconnected) => return,
+        };
+        if request.id <= forgotten.load(Ordering::Relaxed) {
+            continue;
+        }
+        let Some(mut refined) = planner.plan(&request) else {
+            continue;
+        };
+        loop {
+            match outbox.try_send(refined) {
+                Ok(()) => break,
+                Err(TrySendError::Full(back)) => {
+                    refined = back;
+                    std::thread::sleep(IDLE_WAIT);
+                }
+                Err(TrySendError::Disconnected(_)) => return,
+            }
+        }
     }
 }
 
