@@ -94,23 +94,22 @@ impl Path {
         let at = |tau: f64| {
             let (s, sd, sdd) = profile.eval(tau);
             let point = self.point(s, sd, sdd, previous);
-            let (speed, _) = tcp(s);
+            let (speed, curvature) = tcp(s);
             let mut velocity = [speed * sd; COORDINATES];
             let mut acceleration = [speed * sdd; COORDINATES];
             velocity[..AXES].copy_from_slice(&point.qd);
             acceleration[..AXES].copy_from_slice(&point.qdd);
-            (velocity, acceleration)
+            let mut normal = [0.0; COORDINATES];
+            normal[AXES] = curvature * sd * sd;
+            (velocity, acceleration, normal)
         };
-        let (velocity, acceleration) = at(tau);
-        let (s, sd, _) = profile.eval(tau);
-        let mut normal = [0.0; COORDINATES];
-        normal[AXES] = tcp(s).1 * sd * sd;
+        let (velocity, acceleration, normal) = at(tau);
         let step = if tau + step <= profile.duration() {
             step
         } else {
             -step
         };
-        let (velocity_next, acceleration_next) = at(tau + step);
+        let (velocity_next, acceleration_next, _) = at(tau + step);
         let rate = |now: &[f64; COORDINATES], next: &[f64; COORDINATES]| {
             core::array::from_fn(|i| (next[i] - now[i]) / step)
         };
@@ -382,7 +381,8 @@ impl Motion {
                 brake.is_stopped()
             }
             Stop::TimeScale(brake) => {
-                brake.advance(dt, &plan.table_rates(brake.tau(), dt, &self.point.q));
+                let tau = brake.tau();
+                brake.advance(dt, || plan.table_rates(tau, dt, &self.point.q));
                 self.sigma = brake.sigma();
                 self.sigma_rate = brake.sigma_rate();
                 self.place(&plan, brake.tau());

@@ -127,8 +127,14 @@ impl ScaleBrake {
     }
 
     /// Advances `dt` seconds with the table's rates `table` at the current profile time.
-    pub fn advance(&mut self, dt: f64, table: &TableRates) {
-        let b = bounds(table, &self.limits, self.sigma(), self.sigma_rate(), dt);
+    /// Advances `dt` seconds; `table` gives the table's rates at the current profile time,
+    /// asked for only while the stop brakes (a stop that runs the table out needs none).
+    pub fn advance(&mut self, dt: f64, table: impl FnOnce() -> TableRates) {
+        if self.run_out == Some(true) {
+            self.brake.advance(dt);
+            return;
+        }
+        let b = bounds(&table(), &self.limits, self.sigma(), self.sigma_rate(), dt);
         let run_out = match self.run_out {
             Some(run_out) => run_out,
             None => {
@@ -141,12 +147,12 @@ impl ScaleBrake {
                 if run_out {
                     // The time scale is held from here (as an override step would hold it).
                     self.brake.a = 0.0;
+                    self.brake.set_limits(0.0, 0.0, 0.0, 0.0);
                 }
                 *self.run_out.insert(run_out)
             }
         };
         if run_out {
-            self.brake.set_limits(0.0, 0.0, 0.0, 0.0);
             self.brake.advance(dt);
             return;
         }
@@ -280,7 +286,7 @@ mod tests {
         let mut b = ScaleBrake::new(0.0, 1.0, 0.0, 100.0, limits(a, j));
         let mut last_acceleration = 0.0;
         for tick in 1..100_000 {
-            b.advance(DT, &table);
+            b.advance(DT, || table);
             let acceleration = b.sigma_rate() * v;
             assert!(acceleration.abs() <= a * (1.0 + 1e-9), "{acceleration}");
             let jerk = (acceleration - last_acceleration).abs() / DT;
@@ -310,7 +316,7 @@ mod tests {
         let mut b = ScaleBrake::new(0.95, 1.0, 0.0, 1.0, limits(0.1, 1.0));
         let table = cruise(1.0);
         for _ in 0..10_000 {
-            b.advance(DT, &table);
+            b.advance(DT, || table);
             assert!(b.sigma() <= 1.0 && b.tau() <= 1.0);
         }
         assert!(b.is_stopped());
@@ -352,7 +358,7 @@ mod tests {
         };
         let mut b = ScaleBrake::new(0.0, 1.0, 0.0, 100.0, limits(2.0, 5.0));
         for _ in 0..100 {
-            b.advance(DT, &table);
+            b.advance(DT, || table);
             assert!(b.sigma() <= 1.0 && b.sigma_rate() <= 0.0, "{b:?}");
         }
     }
