@@ -22,13 +22,22 @@
 //! the tick) as the deceleration and jerk limits of a [`PathBrake`] of σ: its jerk is
 //! bang-bang, so σ and σ̇ reach 0 together where the limits allow it.
 //!
+//! The cross term `σ·σ̇·(2·q̈ₜ + q̈ᵥ)` is the jerk of taking the table's acceleration away: as
+//! σ falls, `σ²·q̈ₜ` falls with it. Where the table slows a coordinate down, that jerk has the
+//! sign only a growing deceleration can answer (`σ̈·q̇ₜ` against it), and a larger deceleration
+//! makes it larger still: unbounded, a stop could run away into σ = 0 at full deceleration,
+//! a step of the acceleration. So the deceleration is bounded as well, by
+//! `|σ·σ̇·(2·q̈ₜ + q̈ᵥ)| ≤` [`CROSS_SHARE`]`·J`: the rest of the jerk is for the table's own
+//! `σ³·q⃛ₜ` and for σ̈, which can then bring the deceleration back.
+//!
 //! Where the table's own jerk and the cross term leave room only for taking the deceleration
 //! back (the range above does not hold 0), it is taken back, but not past `σ̇ = 0`: σ never
 //! grows, so the arm is never sped up and never leaves the path, but at that point the jerk
 //! may exceed its limit by what the table takes beyond it; and a release that a shrinking
-//! range cuts short ends with a step of `σ̇·q̇ₜ` in the acceleration. The executor's tests on
-//! lines keep every limit; a stop with a guaranteed jerk would need the table planned with
-//! a share of the jerk held back, as the acceleration is held back for the override.
+//! range cuts short ends with a step of `σ̇·q̇ₜ` in the acceleration. The executor's tests
+//! (stops all along several lines, among them the ones that ran away before the cross term
+//! was bounded) keep every limit; a stop with a guaranteed jerk would need the table planned
+//! with a share of the jerk held back, as the acceleration is held back for the override.
 
 use crate::brake::PathBrake;
 
@@ -37,6 +46,9 @@ pub const COORDINATES: usize = shared_types::ipc::AXES + 1;
 /// Share of every limit a stop plans with: the rest pays for the change of the table's
 /// rates within a tick.
 pub const MARGIN: f64 = 0.9;
+/// Share of a coordinate's jerk limit (after [`MARGIN`]) the stop's cross term
+/// `σ·σ̇·(2·q̈ₜ + q̈ᵥ)` may take; it bounds the deceleration (see the module documentation).
+pub const CROSS_SHARE: f64 = 0.7;
 /// Share of the jerk left at `σ = 0` a release of σ̇ plans with: the rest is for what the
 /// table's share still takes while σ falls to 0.
 pub const RELEASE_SHARE: f64 = 0.9;
@@ -203,6 +215,10 @@ fn bounds(
         for (coefficient, used) in [(v, used), end] {
             bounds.keep(coefficient, a, used, sigma, acceleration_limit, j);
         }
+        let cross = sigma * (2.0 * a + a_v).abs();
+        if cross > MOVING {
+            bounds.deceleration = bounds.deceleration.min(CROSS_SHARE * j / cross);
+        }
         if v.abs() > MOVING {
             // As σ → 0 the table's share `used` vanishes: what is left for σ̈ then.
             bounds.release_jerk = bounds.release_jerk.min(RELEASE_SHARE * j / v.abs());
@@ -361,6 +377,20 @@ mod tests {
             b.advance(DT, || table);
             assert!(b.sigma() <= 1.0 && b.sigma_rate() <= 0.0, "{b:?}");
         }
+    }
+
+    #[test]
+    fn the_jerk_of_taking_the_tables_acceleration_away_bounds_the_deceleration() {
+        let mut table = cruise(1.0);
+        table.acceleration = [2.0; COORDINATES];
+        table.velocity_rate = [2.0; COORDINATES];
+        // The acceleration limit leaves 90 + 2 per unit of q̇ₜ: the cross term binds.
+        let l = limits(100.0, 5.0);
+        let at = |sigma: f64| bounds(&table, &l, sigma, 0.0, DT).deceleration;
+        let expected = CROSS_SHARE * MARGIN * 5.0 / (2.0 * 2.0 + 2.0);
+        assert!((at(1.0) - expected).abs() < 1e-12, "{}", at(1.0));
+        // σ·σ̇ is what is bounded: at half the time scale, twice the deceleration.
+        assert!((at(0.5) - 2.0 * expected).abs() < 1e-12, "{}", at(0.5));
     }
 
     #[test]

@@ -1204,6 +1204,43 @@ mod linear {
         }
     }
 
+    /// GroupStop all along lines (from home, shift and turn of the TCP) on which the stop of
+    /// the time scale, unbounded by its cross term, ran away into σ = 0 at full deceleration
+    /// (a jerk of 78 to 125 times the limit): every stop keeps the limits, jerk included.
+    #[test]
+    fn stops_where_the_table_slows_a_joint_down_keep_the_jerk() {
+        let lines = [
+            ([0.291, 0.109, 0.162], [0.223, -0.219, 0.282]),
+            ([-0.077, -0.196, 0.094], [-0.322, -0.336, -0.314]),
+            ([0.173, 0.056, -0.036], [0.106, 0.316, 0.309]),
+            ([-0.170, 0.051, 0.082], [0.398, 0.260, 0.011]),
+        ];
+        for (shift, turn) in lines {
+            for at in (1..10).map(|k| f64::from(k) * 10.0) {
+                let mut rig = Rig::new();
+                let start = pose::pose(&tcp_of(&rig.feedback.q));
+                let line = rig.line_by(1, shift, turn);
+                rig.step(&[line]);
+                assert!(
+                    matches!(
+                        rig.executor.motion.phase,
+                        Phase::Running(Running { plan: Path::Linear(m), .. })
+                            if matches!(m.timing().profile, Profile::Table(_))
+                    ),
+                    "{shift:?} {turn:?}: the line is not timed by its table"
+                );
+                rig.run_until(20_000, |r| r.executor.status().active_progress > at);
+                let stop = rig.command(MotionCommandKind::Stop, 3);
+                rig.step(&[stop]);
+                rig.run_until(20_000, |r| r.is_final(3));
+                rig.check_on_tcp_line(0, start, line.pose);
+                rig.check_limits();
+                assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+                assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+            }
+        }
+    }
+
     #[test]
     fn interrupt_and_continue_stay_on_the_line() {
         let mut rig = Rig::new();
