@@ -205,7 +205,8 @@ fn rc_restart_of_the_planner_during_a_move_stops_the_arm_and_ends_the_move_with_
 #[test]
 fn rc_restart_of_the_interpreter_keeps_the_session_and_the_running_move() {
     let c = Controller::start("suphot");
-    let mut plc = c.client();
+    // The product's default LifeSignTimeOut of 50 ms: the handover must fit within it.
+    let mut plc = c.client_with(plc_client::EngineOptions::default());
     initialize(&mut plc);
     reset_and_enable(&mut plc);
     let old = c.pid_of("interpreter").expect("interpreter pid");

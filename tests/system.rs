@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use common::{
     Controller, actual_joints, cycles_until, execute, initialize, max_deviation, move_to,
-    reset_and_enable, run_until_state, start_slow_move,
+    plc_options, reset_and_enable, run_until_state, start_slow_move,
 };
 use plc_client::{EngineOptions, MoveAxesAbsolute, Request};
 use shared_types::srci::message::{code, state};
@@ -89,7 +89,7 @@ fn wrong_telegram_length_gets_163() {
     let c = Controller::start("len");
     let mut plc = c.client_with(EngineOptions {
         header_lengths: Some((128, 256)),
-        ..EngineOptions::default()
+        ..plc_options()
     });
     // The client answers 163 with RESET and tries again, so the state alternates 163/254;
     // it never becomes 255.
@@ -110,7 +110,8 @@ fn wrong_telegram_length_gets_163() {
 #[test]
 fn frozen_plc_lifesign_gets_165_and_stops_motion() {
     let c = Controller::start("life");
-    let mut plc = c.client();
+    // The product's default LifeSignTimeOut, not the test PLC's lenient one.
+    let mut plc = c.client_with(EngineOptions::default());
     initialize(&mut plc);
     reset_and_enable(&mut plc);
     let target = [60.0, 120.0, 40.0, 60.0, -40.0, 90.0];
@@ -334,7 +335,7 @@ fn cyclic_position_blocks_follow_the_arm_in_every_telegram() {
             cartesian: true,
             joints: true,
         },
-        ..EngineOptions::default()
+        ..plc_options()
     });
     initialize(&mut plc);
     reset_and_enable(&mut plc);

@@ -10,8 +10,8 @@ use shared_types::srci::payload::PayloadReader;
 use shared_types::srci::tables::exchange_configuration as xc;
 
 use crate::common::{
-    Controller, exchange_configuration, execute, expect_error, initialize, run_until_state,
-    wait_for_message,
+    Controller, exchange_configuration, execute, expect_error, initialize, plc_options,
+    run_until_state, wait_for_message,
 };
 
 #[test]
@@ -21,7 +21,7 @@ fn configuration_is_reported_and_lifesign_timeout_is_raised_to_10_ms() {
     let mut plc = c.client_with(EngineOptions {
         cycle_time: Duration::from_millis(2),
         message_level: severity::INFO as u8,
-        ..EngineOptions::default()
+        ..plc_options()
     });
     initialize(&mut plc);
     let start_up = *plc.task().configuration().expect("start-up configuration");

@@ -9,7 +9,7 @@ use shared_types::srci::message::{execution_mode, state};
 use shared_types::srci::payload::{Field, PayloadWriter};
 use shared_types::srci::tables::{self, read_actual_position as rap};
 
-use crate::common::{Controller, Plc, execute, expect_done, initialize};
+use crate::common::{Controller, Plc, execute, expect_done, initialize, plc_options};
 
 /// ConfigMode SAME for shoulder and elbow (byte 0) and wrist (byte 1).
 pub const SAME_CONFIG: [u8; 2] = [0x11, 0x01];
@@ -114,7 +114,7 @@ pub fn initialized_with_cyclic_tcp(tag: &str) -> (Controller, Plc) {
             cartesian: true,
             joints: false,
         },
-        ..EngineOptions::default()
+        ..plc_options()
     });
     initialize(&mut plc);
     (c, plc)

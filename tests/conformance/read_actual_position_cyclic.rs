@@ -8,7 +8,8 @@ use plc_client::{CyclicSelection, EngineOptions, Request};
 use shared_types::srci::tables::read_actual_position as rap;
 
 use crate::common::{
-    Controller, HOME, expect_done, initialize, max_deviation, move_to, reset_and_enable,
+    Controller, HOME, expect_done, initialize, max_deviation, move_to, plc_options,
+    reset_and_enable,
 };
 
 #[test]
@@ -20,7 +21,7 @@ fn cyclic_blocks_agree_with_read_actual_position() {
     };
     let mut plc = c.client_with(EngineOptions {
         cyclic_position: both,
-        ..EngineOptions::default()
+        ..plc_options()
     });
     initialize(&mut plc);
     let data = plc.task().robot_data().cloned().expect("robot data");
@@ -53,7 +54,7 @@ fn cyclic_blocks_agree_with_read_actual_position() {
             cartesian: false,
             joints: true,
         },
-        ..EngineOptions::default()
+        ..plc_options()
     });
     initialize(&mut plc);
     let only = *plc.task().cyclic_position().expect("blocks");

@@ -8,7 +8,7 @@ use shared_types::srci::message::{code, iec_date_time, severity, state};
 use shared_types::srci::payload::PayloadReader;
 use shared_types::srci::tables::read_messages as rm;
 
-use crate::common::{Controller, Plc, execute, initialize, run_until_state};
+use crate::common::{Controller, Plc, execute, initialize, plc_options, run_until_state};
 
 /// The last response of `handle` once `done` holds for it.
 fn response_when(
@@ -45,7 +45,7 @@ fn messages_are_delivered_one_at_a_time_and_acknowledged_by_msg_id() {
     // this test looks at.
     let mut plc = c.client_with(EngineOptions {
         message_level: severity::FATAL_ERROR as u8,
-        ..EngineOptions::default()
+        ..plc_options()
     });
     initialize(&mut plc);
     let level = severity::ERROR as u8;

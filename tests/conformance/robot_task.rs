@@ -6,7 +6,7 @@ use std::time::Duration;
 use plc_client::EngineOptions;
 use shared_types::srci::telegram::{status_bit, telegram_state as ts};
 
-use crate::common::{Controller, cycles_until, initialize};
+use crate::common::{Controller, cycles_until, initialize, plc_options};
 
 /// A client with `options` runs until the robot reports `wanted`.
 fn refused_with(c: &Controller, options: EngineOptions, wanted: u8) {
@@ -32,7 +32,7 @@ fn refused_with(c: &Controller, options: EngineOptions, wanted: u8) {
 #[test]
 fn start_up_initializes_and_initialize_checks_the_header() {
     let c = Controller::start("rtask");
-    let defaults = EngineOptions::default();
+    let defaults = plc_options();
     refused_with(
         &c,
         EngineOptions {
