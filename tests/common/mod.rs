@@ -16,8 +16,6 @@ use shared_types::srci::message::{severity, state};
 /// shared by several would miss the deadlines these tests check.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
-/// A controller (`rc run`) started for one test.
-
 /// LifeSignTimeOut (ms) the test PLC asks for: the PLC here is a thread of the test process
 /// on a shared machine that also runs every service of the controller, not a real-time PLC,
 /// and a test that is not about the lifesign must not fail on one late cycle of its own
@@ -33,6 +31,7 @@ pub fn plc_options() -> EngineOptions {
     }
 }
 
+/// A controller (`rc run`) started for one test.
 pub struct Controller {
     _turn: MutexGuard<'static, ()>,
     child: Child,

@@ -234,6 +234,16 @@ impl Rig {
     }
 }
 
+/// Whether the running move of `rig` is timed by a table.
+fn runs_on_table(rig: &Rig) -> bool {
+    match rig.executor.motion.phase {
+        Phase::Running(Running { plan, .. }) => {
+            matches!(plan.timing().profile, crate::profile::Profile::Table(_))
+        }
+        phase => panic!("not running: {phase:?}"),
+    }
+}
+
 fn home() -> [f64; AXES] {
     config().robot.home_deg.map(f64::to_radians)
 }
@@ -1060,7 +1070,6 @@ mod random {
 
 mod linear {
     use super::*;
-    use crate::profile::Profile;
 
     /// Rig with a linear move by [`SHIFT`] and [`TURN`] from home sent as job 1; returns
     /// the start and target TCP poses.
@@ -1167,14 +1176,7 @@ mod linear {
         for at in [10.0, 30.0, 50.0, 80.0, 90.0, 95.0, 99.0] {
             let mut rig = Rig::new();
             let (start, target) = started(&mut rig);
-            assert!(
-                matches!(
-                    rig.executor.motion.phase,
-                    Phase::Running(Running { plan: Path::Linear(m), .. })
-                        if matches!(m.timing().profile, Profile::Table(_))
-                ),
-                "the line is not timed by its table"
-            );
+            assert!(runs_on_table(&rig), "the line is not timed by its table");
             rig.run_until(20_000, |r| r.executor.status().active_progress > at);
             let (stopped_at, left) = match rig.executor.motion.phase {
                 Phase::Running(Running { tau, plan, .. }) => {
@@ -1222,11 +1224,7 @@ mod linear {
                 let line = rig.line_by(1, shift, turn);
                 rig.step(&[line]);
                 assert!(
-                    matches!(
-                        rig.executor.motion.phase,
-                        Phase::Running(Running { plan: Path::Linear(m), .. })
-                            if matches!(m.timing().profile, Profile::Table(_))
-                    ),
+                    runs_on_table(&rig),
                     "{shift:?} {turn:?}: the line is not timed by its table"
                 );
                 rig.run_until(20_000, |r| r.executor.status().active_progress > at);
@@ -1444,7 +1442,6 @@ fn a_lower_deceleration_rate_slows_only_the_end_of_the_move() {
 /// where the servo has not been sent the move yet.
 mod tables {
     use super::*;
-    use crate::profile::Profile;
     use crate::refinement::{InlineRefiner, Refined, Refiner, TableRequest};
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
@@ -1490,16 +1487,6 @@ mod tables {
         };
         let executor = Executor::with_refiner(&config(), 0xABCD, Box::new(refiner));
         (Rig::with(executor), released)
-    }
-
-    /// Whether the running move of `rig` is timed by a table.
-    fn runs_on_table(rig: &Rig) -> bool {
-        match rig.executor.motion.phase {
-            Phase::Running(Running { plan, .. }) => {
-                matches!(plan.timing().profile, Profile::Table(_))
-            }
-            phase => panic!("not running: {phase:?}"),
-        }
     }
 
     /// Job 1 to [`target_a`], then a line (job 2) from there.
