@@ -122,9 +122,14 @@ pub fn time(
     Err(ToppError::JerkUnsettled(MAX_REPAIRS + 4))
 }
 
+/// The speed `ṡ` of the speed² `x` (rounding may leave `x` a hair below 0).
+fn speed(x: f64) -> f64 {
+    x.max(0.0).sqrt()
+}
+
 /// The table of the speeds² `x` at the grid points.
 fn table(x: &[f64; POINTS]) -> Result<TableProfile, ToppError> {
-    Ok(TableProfile::from_speeds(&x.map(|x| x.max(0.0).sqrt()))?)
+    Ok(TableProfile::from_speeds(&x.map(speed))?)
 }
 
 /// The largest magnitudes of the derivatives of `samples` at grid point `k` and its
@@ -486,8 +491,14 @@ impl<'a> Problem<'a> {
     /// speeds² `x` around it (`before` at `m − 1`, `next` at `m + 1`, ignored at the ends)
     /// and the path accelerations `before_u` of interval `m − 1` and `after_u` of `m`.
     fn window(&self, m: usize, x: [f64; 3], before_u: f64, after_u: f64) -> f64 {
-        let [before, at, next] = x.map(|x| x.max(0.0));
-        let interval = |a: f64, b: f64| 2.0 * STEP / (a.sqrt() + b.sqrt());
+        self.window_at_speeds(m, x.map(speed), before_u, after_u)
+    }
+
+    /// [`window`](Self::window) with the speeds `ṡ` instead of their squares: a ramp asks
+    /// for many windows at the same two of them.
+    fn window_at_speeds(&self, m: usize, speeds: [f64; 3], before_u: f64, after_u: f64) -> f64 {
+        let [before, at, next] = speeds;
+        let interval = |a: f64, b: f64| 2.0 * STEP / (a + b);
         let mut span = 0.0;
         if m > 0 {
             span += 0.5 * interval(before, at);
@@ -501,8 +512,7 @@ impl<'a> Problem<'a> {
             if m < INTERVALS { next } else { 0.0 },
         ]
         .iter()
-        .fold(0.0f64, |a, b| a.max(*b))
-        .sqrt();
+        .fold(0.0f64, |a, b| a.max(*b));
         let acceleration = before_u.abs().max(after_u.abs());
         let e = &self.envelopes[m];
         let l = self.limits;
@@ -543,9 +553,10 @@ impl<'a> Problem<'a> {
         reason = "Some(true) and Some(false) are compared, not floats"
     )]
     fn ramp(&self, k: usize, x: [f64; 2], before_u: f64, limit: f64, sign: f64) -> f64 {
+        let [before, at] = x.map(speed);
         let room = |u: f64| {
-            let next = (x[1] + 2.0 * STEP * u).max(0.0);
-            self.window(k, [x[0], x[1], next], before_u, u) - sign * (u - before_u)
+            let next = speed(x[1] + 2.0 * STEP * u);
+            self.window_at_speeds(k, [before, at, next], before_u, u) - sign * (u - before_u)
         };
         let mut outer = (limit, room(limit));
         if outer.1 >= 0.0 {
