@@ -260,16 +260,13 @@ pub fn make_background() -> Result<(), Errno> {
     let online = usize::try_from(online)
         .unwrap_or(0)
         .min(libc::CPU_SETSIZE as usize);
-    // SAFETY: the sets are written by the kernel or by CPU_SET within their size; pid 0 is
-    // the calling thread and the sizes are those of the sets passed.
+    let pinned: Vec<usize> = allowed_cpus()?
+        .into_iter()
+        .filter(|&cpu| cpu < online)
+        .collect();
+    // SAFETY: the set is written by CPU_SET within its size; pid 0 is the calling thread and
+    // the size is that of the set passed.
     unsafe {
-        let mut current: libc::cpu_set_t = core::mem::zeroed();
-        if libc::sched_getaffinity(0, core::mem::size_of::<libc::cpu_set_t>(), &mut current) != 0 {
-            return Err(Errno::last());
-        }
-        let pinned: Vec<usize> = (0..online)
-            .filter(|&cpu| libc::CPU_ISSET(cpu, &current))
-            .collect();
         if let [cpu] = pinned[..]
             && online > 1
         {
@@ -285,13 +282,28 @@ pub fn make_background() -> Result<(), Errno> {
     Ok(())
 }
 
+/// The CPUs the calling thread may run on.
+fn allowed_cpus() -> Result<Vec<usize>, Errno> {
+    // SAFETY: the set is written by the kernel and read within its size; pid 0 is the calling
+    // thread and the size is that of the set passed.
+    unsafe {
+        let mut set: libc::cpu_set_t = core::mem::zeroed();
+        if libc::sched_getaffinity(0, core::mem::size_of::<libc::cpu_set_t>(), &mut set) != 0 {
+            return Err(Errno::last());
+        }
+        Ok((0..libc::CPU_SETSIZE as usize)
+            .filter(|&cpu| libc::CPU_ISSET(cpu, &set))
+            .collect())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn a_background_thread_leaves_a_pinned_cpu_and_runs_at_the_lowest_priority() {
-        let cpus = allowed_cpus();
+        let cpus = allowed_cpus().expect("affinity");
         let handle = std::thread::spawn(move || {
             pin_to_cpu(cpus[0]).expect("pin");
             make_background().expect("background");
@@ -303,14 +315,14 @@ mod tests {
                     libc::getpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t),
                 )
             };
-            (policy, nice, allowed_cpus())
+            (policy, nice, allowed_cpus().expect("affinity"))
         });
         let (policy, nice, after) = handle.join().expect("thread");
         assert_eq!((policy, nice), (libc::SCHED_OTHER, 19));
         // SAFETY: sysconf takes only a name.
         if unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) } > 1 {
             assert!(
-                !after.is_empty() && !after.contains(&allowed_cpus()[0]),
+                !after.is_empty() && !after.contains(&allowed_cpus().expect("affinity")[0]),
                 "{after:?}"
             );
         }
@@ -325,20 +337,6 @@ mod tests {
     }
 
     /// The CPUs the calling thread may run on.
-    fn allowed_cpus() -> Vec<usize> {
-        // SAFETY: the set is written by the kernel and read within its size.
-        unsafe {
-            let mut set: libc::cpu_set_t = core::mem::zeroed();
-            assert_eq!(
-                libc::sched_getaffinity(0, core::mem::size_of::<libc::cpu_set_t>(), &mut set),
-                0
-            );
-            (0..libc::CPU_SETSIZE as usize)
-                .filter(|&cpu| libc::CPU_ISSET(cpu, &set))
-                .collect()
-        }
-    }
-
     fn is_root() -> bool {
         // SAFETY: geteuid has no preconditions.
         unsafe { libc::geteuid() == 0 }
@@ -361,9 +359,9 @@ mod tests {
         assert!(plan.is_empty());
         assert_eq!(plan.to_string(), "normal scheduling, any CPU");
         let (before, after) = std::thread::spawn(move || {
-            let before = (allowed_cpus(), scheduling());
+            let before = (allowed_cpus().expect("affinity"), scheduling());
             apply("servo", &plan).unwrap();
-            (before, (allowed_cpus(), scheduling()))
+            (before, (allowed_cpus().expect("affinity"), scheduling()))
         })
         .join()
         .unwrap();
@@ -388,11 +386,11 @@ mod tests {
 
     #[test]
     fn pinning_to_an_allowed_cpu_works_unprivileged() {
-        let cpu = allowed_cpus()[0];
+        let cpu = allowed_cpus().expect("affinity")[0];
         // Its own thread, so the test runner's threads keep their CPUs.
         let pinned = std::thread::spawn(move || {
             let plan = SchedulingPlan::from_settings(&settings(0, cpu as i16, false));
-            apply("servo", &plan).map(|()| allowed_cpus())
+            apply("servo", &plan).map(|()| allowed_cpus().expect("affinity"))
         })
         .join()
         .unwrap();
