@@ -1170,12 +1170,16 @@ mod linear {
 
     /// GroupStop at several points of a line timed by its time-optimal table: every stop
     /// keeps the limits, jerk included, and stays on the line; none takes longer than the
-    /// rest of the table, and a stop early on the line brakes far sooner.
+    /// rest of the table, and a stop early on the line (1.4 s, where a stop from full speed
+    /// takes about 0.5 s) brakes far sooner.
     #[test]
     fn stops_anywhere_on_a_time_optimal_line_keep_the_limits_and_the_line() {
         for at in [10.0, 30.0, 50.0, 80.0, 90.0, 95.0, 99.0] {
             let mut rig = Rig::new();
-            let (start, target) = started(&mut rig);
+            let start = pose::pose(&tcp_of(&rig.feedback.q));
+            let line = rig.line_by(1, [0.3, -0.3, -0.2], TURN);
+            let target = line.pose;
+            rig.step(&[line]);
             assert!(runs_on_table(&rig), "the line is not timed by its table");
             rig.run_until(20_000, |r| r.executor.status().active_progress > at);
             let (stopped_at, left) = match rig.executor.motion.phase {
@@ -1206,9 +1210,30 @@ mod linear {
         }
     }
 
-    /// GroupStop all along lines (from home, shift and turn of the TCP) on which the stop of
-    /// the time scale, unbounded by its cross term, ran away into σ = 0 at full deceleration
-    /// (a jerk of 78 to 125 times the limit): every stop keeps the limits, jerk included.
+    /// GroupStop at `at` % of the line from home by `shift` and `turn` of the TCP, timed by
+    /// its table: the stop keeps the limits, jerk included, and the line.
+    fn stop_on_table_keeps_the_limits(shift: [f64; 3], turn: [f64; 3], at: f64) {
+        let mut rig = Rig::new();
+        let start = pose::pose(&tcp_of(&rig.feedback.q));
+        let line = rig.line_by(1, shift, turn);
+        rig.step(&[line]);
+        assert!(
+            runs_on_table(&rig),
+            "{shift:?} {turn:?}: the line is not timed by its table"
+        );
+        rig.run_until(20_000, |r| r.executor.status().active_progress > at);
+        let stop = rig.command(MotionCommandKind::Stop, 3);
+        rig.step(&[stop]);
+        rig.run_until(20_000, |r| r.is_final(3));
+        rig.check_on_tcp_line(0, start, line.pose);
+        rig.check_limits();
+        assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+        assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+    }
+
+    /// GroupStop all along lines on which the stop of the time scale, unbounded by its
+    /// cross term, ran away into σ = 0 at full deceleration (a jerk of 78 to 125 times the
+    /// limit).
     #[test]
     fn stops_where_the_table_slows_a_joint_down_keep_the_jerk() {
         let lines = [
@@ -1219,23 +1244,46 @@ mod linear {
         ];
         for (shift, turn) in lines {
             for at in (1..10).map(|k| f64::from(k) * 10.0) {
-                let mut rig = Rig::new();
-                let start = pose::pose(&tcp_of(&rig.feedback.q));
-                let line = rig.line_by(1, shift, turn);
-                rig.step(&[line]);
-                assert!(
-                    runs_on_table(&rig),
-                    "{shift:?} {turn:?}: the line is not timed by its table"
-                );
-                rig.run_until(20_000, |r| r.executor.status().active_progress > at);
-                let stop = rig.command(MotionCommandKind::Stop, 3);
-                rig.step(&[stop]);
-                rig.run_until(20_000, |r| r.is_final(3));
-                rig.check_on_tcp_line(0, start, line.pose);
-                rig.check_limits();
-                assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
-                assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+                stop_on_table_keeps_the_limits(shift, turn, at);
             }
+        }
+    }
+
+    /// GroupStops that braked the time scale while the table was about to brake at its jerk
+    /// limit to its end: the two decelerations added up, and the jerk of taking the table's
+    /// acceleration away forced the deceleration ever higher (jerks 20 to 64 times the limit)
+    /// until such stops ran the table out instead.
+    #[test]
+    fn stops_shortly_before_the_table_brakes_to_its_end_keep_the_jerk() {
+        let stops = [
+            (
+                [0.0159, 0.04488, -0.14836],
+                [0.08936, -0.38936, 0.38096],
+                40.0,
+            ),
+            (
+                [0.12216, 0.08382, 0.06008],
+                [0.2232, -0.00016, -0.38664],
+                40.0,
+            ),
+            (
+                [0.19374, 0.0018, 0.01176],
+                [0.15304, -0.34784, -0.08112],
+                40.0,
+            ),
+            (
+                [0.27078, 0.03912, 0.1474],
+                [-0.14856, -0.37088, -0.07736],
+                40.0,
+            ),
+            (
+                [0.02016, 0.19638, -0.03764],
+                [0.29704, 0.2192, 0.01624],
+                50.0,
+            ),
+        ];
+        for (shift, turn, at) in stops {
+            stop_on_table_keeps_the_limits(shift, turn, at);
         }
     }
 

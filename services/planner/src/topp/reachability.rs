@@ -30,7 +30,9 @@
 //! for `|s⃛|` (the largest magnitudes of the points around `m`, the largest `ṡ` and `|s̈|`
 //! around it; the TCP likewise), so the change of `u` at `m` has a window. To keep the
 //! budget positive the speed is capped where `|q'''|·ṡ³` would take more than half of it
-//! and `|s̈|` is held to half of what is left for `3·|q''|·ṡ·|s̈|` at the stage's speed bound.
+//! and `|s̈|` is held to what is left for `3·|q''|·ṡ·|s̈|` at the stage's speed bound (the
+//! largest speed around the stage, so at the speed the stage ends up with the term takes
+//! less, and the window for `s⃛` keeps the rest).
 //!
 //! The jerk-limited forward pass takes at every stage the largest `u` in that window whose
 //! fastest way down (`u` lowered as fast as the window allows, down to the largest braking
@@ -53,8 +55,6 @@ use super::{
 
 /// Times the speed bound is lowered before a jerk-limited profile is given up.
 pub const MAX_REPAIRS: usize = 8;
-/// Share of the jerk budget (after `|q'''|·ṡ³`) the term `3·|q''|·ṡ·|s̈|` may take.
-const CROSS_SHARE: f64 = 0.5;
 /// Factor on the profile's speed² where a repair lowers the speed bound.
 const REPAIR_FACTOR: f64 = 0.9;
 /// Grid points before a jerk violation whose speed bound a repair lowers.
@@ -392,8 +392,8 @@ impl<'a> Problem<'a> {
     }
 
     /// With the jerk bound, the largest `|s̈|` at grid point `k` for which
-    /// `3·|q''|·ṡ·|s̈|` takes at most [`CROSS_SHARE`] of the jerk budget left after
-    /// `|q'''|·ṡ³` at the largest speed around `k`; unbounded without.
+    /// `3·|q''|·ṡ·|s̈|` takes at most the jerk budget left after `|q'''|·ṡ³` at the
+    /// largest speed around `k`; unbounded without.
     fn cross_bound(&self, k: usize) -> f64 {
         if self.jerk == JerkBound::Off {
             return f64::INFINITY;
@@ -410,12 +410,12 @@ impl<'a> Problem<'a> {
         let l = self.limits;
         let mut bound = f64::INFINITY;
         if e.tcp_curvature > MOVING {
-            bound = bound.min(CROSS_SHARE * GRID_MARGIN * l.tcp_jerk / (3.0 * e.tcp_curvature * v));
+            bound = bound.min(GRID_MARGIN * l.tcp_jerk / (3.0 * e.tcp_curvature * v));
         }
         for i in 0..AXES {
             if e.curvature[i] > MOVING {
                 let left = (GRID_MARGIN * l.jerk[i] - e.third[i] * v * v * v).max(0.0);
-                bound = bound.min(CROSS_SHARE * left / (3.0 * e.curvature[i] * v));
+                bound = bound.min(left / (3.0 * e.curvature[i] * v));
             }
         }
         bound
