@@ -338,7 +338,9 @@ mod tests {
         #![proptest_config(ProptestConfig::with_cases(24))]
 
         /// Random short lines from random regular starts: where a solution exists, every
-        /// point lies on the line and the wrist joints on their straight line.
+        /// point lies on the line (within the micrometre the module promises between the
+        /// samples: a line whose arm joints speed up near its end left 0.14 µm) and the
+        /// wrist joints on their straight line.
         #[test]
         fn random_lines_stay_on_the_line(
             q in prop::array::uniform6(-0.4f64..0.4),
@@ -358,7 +360,7 @@ mod tests {
             for i in 0..=200 {
                 let s = f64::from(i) / 200.0;
                 let p = tcp(k, &path.joints(s)).translation.vector;
-                prop_assert!((p - (p0 + (end - p0) * s)).norm() < 1e-8, "s = {}", s);
+                prop_assert!((p - (p0 + (end - p0) * s)).norm() < 1e-6, "s = {}", s);
             }
         }
     }
