@@ -70,7 +70,7 @@ pub const MAX_SCALE_JERK: f64 = 200.0;
 /// still braking the time scale when the table brakes to its end adds the two
 /// decelerations: where the table brakes at its jerk limit, the jerk of taking its
 /// acceleration away then forces the time scale's deceleration ever higher (at 1, 19 of 1179
-/// stops on random lines did, with jerks of 6 to 64 times the limit; none of 1728 at 1.25 or
+/// stops on random lines did, with jerks up to 62 times the limit; none of 1728 at 1.25 or
 /// at 1.5).
 pub const RUN_OUT_FACTOR: f64 = 1.5;
 /// Table rates below this count as standing.

@@ -1251,8 +1251,8 @@ mod linear {
 
     /// GroupStops that braked the time scale while the table was about to brake at its jerk
     /// limit to its end: the two decelerations added up, and the jerk of taking the table's
-    /// acceleration away forced the deceleration ever higher (jerks 20 to 64 times the limit)
-    /// until such stops ran the table out instead.
+    /// acceleration away forced the deceleration ever higher (the first of them to 20 times
+    /// the jerk limit) until such stops ran the table out instead.
     #[test]
     fn stops_shortly_before_the_table_brakes_to_its_end_keep_the_jerk() {
         let stops = [
