@@ -475,11 +475,9 @@ mod tests {
             }
             // The override reserve only ever slows a move down.
             // The reserve only tightens the limits, but the jerk-limited pass is not an
-            // exact optimum: with tighter limits it may find a table faster. Where the bend
-            // term 3·|q''|·ṡ·|s̈| may take the whole jerk budget, a smaller |s̈| leaves more
-            // of it to change s̈ with (7 % faster on one of these lines).
+            // exact optimum: with tighter limits it may find a table a little faster.
             assert!(
-                case.ours.as_planned_s >= 0.9 * case.ours.no_reserve_s,
+                case.ours.as_planned_s >= 0.98 * case.ours.no_reserve_s,
                 "{:?}",
                 case.ours
             );
