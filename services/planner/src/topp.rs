@@ -19,8 +19,9 @@
 //! - with different acceleration and deceleration rates the path acceleration is held to
 //!   their shares of what the joints allow tangentially; with equal rates these rows never bind;
 //! - `b ≤ V²` for the speed cap of [`ToppLimits::speed_cap`], and with the jerk bound
-//!   `|q''_i|·b ≤ curvature_share·a_i` at every point ([`ToppLimits::curvature_share`]):
-//!   both keep the jerk pass's cross term `3·q''·ṡ·s̈` small;
+//!   `|q''_i|·b ≤ curvature_share·a_i` and `|q'''_i|·b^(3/2) ≤ third_share·j_i` at every
+//!   point ([`ToppLimits::curvature_share`], [`ToppLimits::third_share`]): they keep the jerk
+//!   pass's terms `3·q''·ṡ·s̈` and `q'''·ṡ³` small;
 //! - `b_0 = b_N = 0`.
 //!
 //! [`reachability`] solves it stage by stage (microseconds to a fraction of a millisecond)
@@ -79,8 +80,9 @@ const JERK_TOLERANCE: f64 = 1e-3;
 const MOVING: f64 = 1e-12;
 /// Share of the jerk budget at rest a point keeps when the estimates leave none.
 const JERK_FLOOR: f64 = 0.05;
-/// Share of a joint's jerk limit the term `q'''·ṡ³` may take at most (the table's cap and
-/// the constant stop bounds of [`linear_move`](crate::linear_move) alike).
+/// Share of a joint's jerk limit the term `q'''·ṡ³` may take at most in the constant stop
+/// bounds of [`linear_move`](crate::linear_move) and in the table capped by them (the
+/// candidate bounded point by point takes less: [`ToppLimits::third_share`]).
 pub const THIRD_SHARE: f64 = 0.5;
 /// Right-hand side of a jerk row that cannot bind: the scaled `b` lies in [0, 1].
 const UNBOUND: f64 = 4.0;
@@ -135,6 +137,9 @@ pub struct ToppLimits {
     /// Share of a joint's acceleration limit the curvature term `|q''|·ṡ²` may take at any
     /// point when the jerk is bounded (infinite: no such bound).
     pub curvature_share: f64,
+    /// Share of a joint's jerk limit the term `|q'''|·ṡ³` may take at any point when the
+    /// jerk is bounded.
+    pub third_share: f64,
 }
 
 /// Limits of 1 in every unit.
@@ -149,6 +154,7 @@ const UNIT_LIMITS: ToppLimits = ToppLimits {
     braking: 1.0,
     speed_cap: 1.0,
     curvature_share: f64::INFINITY,
+    third_share: THIRD_SHARE,
 };
 
 /// Whether the path jerk is bounded.
@@ -536,7 +542,7 @@ impl Solver {
 /// The largest `ṡ²` at every grid point: the joint and TCP velocities with the largest
 /// `|q'|`, `|p'|` of the point and its neighbours (`ṡ²` is linear between the points, so the
 /// bound holds on the whole interval), the speed cap and, with the jerk bound, also
-/// `|q'''|·ṡ³ ≤ THIRD_SHARE·j`.
+/// `|q'''|·ṡ³ ≤ third_share·j`.
 fn speed_limits(
     samples: &PathSamples,
     limits: &ToppLimits,
@@ -559,7 +565,7 @@ fn speed_limits(
             }
             let third = largest(&|e| samples.third[e][i]);
             if jerk == JerkBound::Joints && third > MOVING {
-                v = v.min((THIRD_SHARE * limits.jerk[i] / third).cbrt());
+                v = v.min((limits.third_share * limits.jerk[i] / third).cbrt());
             }
             let curvature = largest(&|e| samples.curvature[e][i]);
             if jerk == JerkBound::Joints && curvature > MOVING {

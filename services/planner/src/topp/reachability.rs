@@ -29,8 +29,8 @@
 //! q'·s⃛` the joints' jerk budget leaves `J_m = min_i (j_i − |q'''_i|·ṡ³ − 3·|q''_i|·ṡ·|s̈|)/|q'_i|`
 //! for `|s⃛|` (the largest magnitudes of the points around `m`, the largest `ṡ` and `|s̈|`
 //! around it; the TCP likewise), so the change of `u` at `m` has a window. To keep the
-//! budget positive the speed is capped where `|q'''|·ṡ³` would take more than half of it
-//! and `|s̈|` is held to what is left for `3·|q''|·ṡ·|s̈|` at the stage's speed bound (the
+//! budget positive the speed is capped where `|q'''|·ṡ³` would take more than the share
+//! [`ToppLimits::third_share`] of it and `|s̈|` is held to what is left for `3·|q''|·ṡ·|s̈|` at the stage's speed bound (the
 //! largest speed around the stage, so at the speed the stage ends up with the term takes
 //! less, and the window for `s⃛` keeps the rest).
 //!

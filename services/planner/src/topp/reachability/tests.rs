@@ -76,6 +76,7 @@ fn cobot() -> ToppLimits {
         braking: 1.0,
         speed_cap: 20.0,
         curvature_share: f64::INFINITY,
+        third_share: crate::topp::THIRD_SHARE,
     }
 }
 
