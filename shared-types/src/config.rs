@@ -265,6 +265,9 @@ pub struct PlannerConfig {
     pub queue_length: u16,
     /// Share of the acceleration limit kept free for override changes during a move.
     pub override_reserve: f64,
+    /// Longest wait of a standing arm for the time-optimal table of a line before it starts
+    /// the line on constant bounds (0: at once).
+    pub table_wait_ms: u64,
 }
 
 /// `[servo]`.
@@ -623,6 +626,12 @@ impl MainConfig {
             16,
         )?;
         c.range("planner.queue_length", self.planner.queue_length, 1, 256)?;
+        c.range(
+            "planner.table_wait_ms",
+            self.planner.table_wait_ms,
+            0,
+            1_000,
+        )?;
         let rt = &self.realtime;
         for (name, t) in [
             ("fieldbus", &rt.fieldbus),

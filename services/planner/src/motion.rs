@@ -267,11 +267,22 @@ pub struct Motion {
     pub holds: Holds,
 }
 
+/// The servo tick a motion advances to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoTick {
+    /// The servo's number of the tick.
+    pub number: u64,
+    /// Its length, s.
+    pub dt: f64,
+}
+
 /// What one tick of motion reads besides the motion itself.
 struct Tick<'a> {
     dynamics: &'a Dynamics,
     sequences: &'a Sequences,
     cursor: &'a mut Cursor,
+    /// The servo tick advanced to.
+    number: u64,
     dt: f64,
     override_target: f64,
 }
@@ -400,10 +411,11 @@ impl Motion {
         };
     }
 
-    /// Advances one tick of `dt` seconds. A standing arm starts the next move of `sequences`
-    /// past `cursor` (see [`Sequences::next`]) and moves the cursor past it; a linear move
-    /// only if it was planned from exactly where the arm stands, else the arm waits for the
-    /// executor to plan it from there. A running move with a planned blend starts the next
+    /// Advances to servo tick `to`. A standing arm starts the
+    /// next move of `sequences` past `cursor` (see [`Sequences::next`]) and moves the cursor
+    /// past it; a linear move only if it was planned from exactly where the arm stands, else
+    /// the arm waits for the executor to plan it from there, and no move before its
+    /// [`earliest_start_tick`](crate::queue::QueuedMove::earliest_start_tick). A running move with a planned blend starts the next
     /// move the same way when the overlap begins. A primary move with `hold_after` holds the
     /// primary sequence when it is done.
     /// State changes of jobs go to `report(job, state, code)`. A finished stop leaves the
@@ -413,14 +425,16 @@ impl Motion {
         dynamics: &Dynamics,
         sequences: &Sequences,
         cursor: &mut Cursor,
-        dt: f64,
+        to: ServoTick,
         override_target: f64,
         report: &mut impl FnMut(u32, u8, u16),
     ) {
+        let dt = to.dt;
         let mut tick = Tick {
             dynamics,
             sequences,
             cursor,
+            number: to.number,
             dt,
             override_target,
         };
@@ -457,6 +471,9 @@ impl Motion {
         let Some((sequence, queued)) = tick.sequences.next(tick.cursor, self.holds) else {
             return;
         };
+        if tick.number < queued.earliest_start_tick {
+            return;
+        }
         let command = &queued.command;
         let active = ActiveMove::of(command, sequence);
         if command.kind == MotionCommandKind::Wait as u8 {

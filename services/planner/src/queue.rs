@@ -14,6 +14,9 @@ pub struct QueuedMove {
     /// The executor's number of the request for its table
     /// ([`refinement`](crate::refinement)), 0 for none.
     pub table_request: u64,
+    /// While its table is being planned, a standing arm starts the move no earlier than in
+    /// this servo tick (0: at once).
+    pub earliest_start_tick: u64,
 }
 
 impl QueuedMove {
@@ -23,6 +26,7 @@ impl QueuedMove {
             command,
             linear: None,
             table_request: 0,
+            earliest_start_tick: 0,
         }
     }
 }

@@ -6,8 +6,10 @@
 //! setpoint window the servo holds, so the executor asks a [`Refiner`] for it. The refined
 //! plan replaces the buffered one if the move still starts where both were planned from and
 //! has not entered a setpoint window sent to the servo; otherwise the move runs on its
-//! constant bounds. So a line sent to a standing arm starts at once on constant bounds, and
-//! lines buffered behind a running move get their table.
+//! constant bounds. Lines buffered behind a running move get their table; a line a standing
+//! arm would start waits a bounded time for it (see the executor's
+//! [`table_wait`](crate::executor::table_wait)). Every request is answered, with or without
+//! a table, so that nothing waits for a table that will not come.
 //!
 //! [`ThreadRefiner`] plans on a thread of its own (the planner process); [`InlineRefiner`]
 //! plans when asked (the executor's unit tests, where the tick has no deadline).
@@ -38,19 +40,22 @@ pub struct TableRequest {
     pub command: MotionCommand,
 }
 
-/// The plan of a [`TableRequest`], timed by its table.
+/// The answer to a [`TableRequest`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Refined {
     /// The request's number.
     pub id: u64,
-    /// The plan, from the request's start.
-    pub plan: LinearPlan,
+    /// The plan from the request's start, timed by its table; `None` if the move has none
+    /// (the constant bounds are as fast, or the move cannot be planned: the tick reported
+    /// that already).
+    pub plan: Option<LinearPlan>,
 }
 
 /// Plans buffered Cartesian moves with their tables.
 pub trait Refiner: Send {
-    /// Asks for the table of `request`; without room the move keeps its constant bounds.
-    fn request(&mut self, request: &TableRequest);
+    /// Asks for the table of `request`: whether it will be answered (without room the move
+    /// keeps its constant bounds).
+    fn request(&mut self, request: &TableRequest) -> bool;
     /// A refined plan, if one is ready.
     fn take(&mut self) -> Option<Refined>;
     /// The requests numbered up to `through` are of no use any more (their moves ended):
@@ -81,9 +86,16 @@ impl TablePlanner {
         }
     }
 
-    /// The plan of `request` timed by its table, or `None` if it has none (the constant
-    /// bounds are as fast, or the move cannot be planned: the tick reported that already).
-    fn plan(&self, request: &TableRequest) -> Option<Refined> {
+    /// The answer to `request`.
+    fn answer(&self, request: &TableRequest) -> Refined {
+        Refined {
+            id: request.id,
+            plan: self.plan(request),
+        }
+    }
+
+    /// The plan of `request` timed by its table, if it has one.
+    fn plan(&self, request: &TableRequest) -> Option<LinearPlan> {
         let limits = move_limits(&self.limits, &request.command);
         let arm = Arm {
             kinematics: &self.kinematics,
@@ -94,12 +106,7 @@ impl TablePlanner {
         };
         let plan = LinearMove::plan(request.start, &request.command, &arm, self.reserve).ok()?;
         match plan {
-            LinearPlan::Move(m) if matches!(m.timing().profile, Profile::Table(_)) => {
-                Some(Refined {
-                    id: request.id,
-                    plan,
-                })
-            }
+            LinearPlan::Move(m) if matches!(m.timing().profile, Profile::Table(_)) => Some(plan),
             _ => None,
         }
     }
@@ -122,13 +129,13 @@ impl InlineRefiner {
 }
 
 impl Refiner for InlineRefiner {
-    fn request(&mut self, request: &TableRequest) {
+    fn request(&mut self, request: &TableRequest) -> bool {
         // Beyond the capacity the move keeps its constant bounds: no allocation here.
-        if self.ready.len() < self.ready.capacity()
-            && let Some(refined) = self.planner.plan(request)
-        {
-            self.ready.push_back(refined);
+        let room = self.ready.len() < self.ready.capacity();
+        if room {
+            self.ready.push_back(self.planner.answer(request));
         }
+        room
     }
 
     fn take(&mut self) -> Option<Refined> {
@@ -205,9 +212,7 @@ fn serve(
         if request.id <= forgotten.load(Ordering::Relaxed) {
             continue;
         }
-        let Some(mut refined) = planner.plan(&request) else {
-            continue;
-        };
+        let mut refined = planner.answer(&request);
         loop {
             match outbox.try_send(refined) {
                 Ok(()) => break,
@@ -222,16 +227,17 @@ fn serve(
 }
 
 impl Refiner for ThreadRefiner {
-    fn request(&mut self, request: &TableRequest) {
+    fn request(&mut self, request: &TableRequest) -> bool {
         match self.requests.try_send(*request) {
-            Ok(()) => {}
+            Ok(()) => true,
             // Busy with as many lines as a sequence holds: this one keeps constant bounds.
-            Err(TrySendError::Full(_)) => {}
+            Err(TrySendError::Full(_)) => false,
             Err(TrySendError::Disconnected(_)) => {
                 if !self.ended {
                     self.ended = true;
                     tracing::error!("the table planning thread ended; lines keep constant bounds");
                 }
+                false
             }
         }
     }
@@ -302,7 +308,7 @@ mod tests {
         };
         assert_eq!(refined, expected);
         assert_eq!(refined.id, 3);
-        assert_eq!(refined.plan.start(), &r.start);
+        assert_eq!(refined.plan.map(|p| *p.start()), Some(r.start));
     }
 
     #[test]
@@ -356,13 +362,14 @@ mod tests {
     }
 
     #[test]
-    fn a_move_without_a_table_is_not_refined() {
+    fn a_move_without_a_table_is_answered_without_one() {
         let config = test_config();
         let mut r = request(&config);
         // Where it stands: nothing to time.
         r.command.pose = pose::pose(&Kinematics::new(&config.robot.kinematics).flange(&r.start));
         let mut inline = InlineRefiner::new(&config, 4);
         inline.request(&r);
+        assert_eq!(inline.take(), Some(Refined { id: 3, plan: None }));
         assert!(inline.take().is_none());
     }
 }

@@ -1503,8 +1503,8 @@ mod tables {
     }
 
     impl Refiner for HeldRefiner {
-        fn request(&mut self, request: &TableRequest) {
-            self.inner.request(request);
+        fn request(&mut self, request: &TableRequest) -> bool {
+            self.inner.request(request)
         }
 
         fn take(&mut self) -> Option<Refined> {
@@ -1547,17 +1547,112 @@ mod tables {
         line
     }
 
+    /// Answers every request at once without a table, or (`accepts` false) takes none: a
+    /// line the constant bounds time as fast, or a planning thread without room.
+    struct NoTables {
+        accepts: bool,
+        asked: Option<u64>,
+    }
+
+    impl Refiner for NoTables {
+        fn request(&mut self, request: &TableRequest) -> bool {
+            self.asked = self.accepts.then_some(request.id);
+            self.accepts
+        }
+
+        fn take(&mut self) -> Option<Refined> {
+            self.asked.take().map(|id| Refined { id, plan: None })
+        }
+
+        fn forget(&mut self, _through: u64) {}
+    }
+
+    /// The ticks a standing arm waits for the table of the line at the front of the primary
+    /// sequence.
+    fn table_wait_ticks(rig: &Rig) -> u64 {
+        let front = rig.executor.sequences.queue(Sequence::Primary).get(0);
+        let Some(Some(LinearPlan::Move(line))) = front.map(|q| q.linear) else {
+            panic!("no line buffered");
+        };
+        let configured = config().main.planner.table_wait_ms as f64 * 1e-3;
+        (table_wait(configured, line.timing().profile.duration()) / DT) as u64
+    }
+
+    /// Steps until job `job` is active: the steps it took.
+    fn steps_until_active(rig: &mut Rig, job: u32) -> u64 {
+        let mut steps = 0;
+        while rig.executor.status().active_job != job {
+            assert!(steps < 10_000, "job {job} never started");
+            rig.step(&[]);
+            steps += 1;
+        }
+        steps
+    }
+
     #[test]
-    fn a_line_sent_to_a_standing_arm_starts_on_constant_bounds_and_keeps_them() {
+    fn a_line_sent_to_a_standing_arm_waits_for_its_table() {
+        let (mut rig, released) = held();
+        let c = rig.line_by(1, SHIFT, TURN);
+        let start = pose::pose(&tcp_of(&rig.feedback.q));
+        rig.step(&[c]);
+        let wait = table_wait_ticks(&rig);
+        assert!(wait > 100, "{wait} ticks");
+        // The table is being planned: the line waits in the queue, the arm stands.
+        for _ in 0..wait / 2 {
+            rig.step(&[]);
+        }
+        let s = rig.executor.status();
+        assert_eq!((s.active_job, s.queued_jobs, s.moving), (0, 1, false));
+        assert_eq!(rig.states_of(1), [(state::BUFFERED, 0)]);
+        released.store(true, Ordering::Relaxed);
+        rig.step(&[]);
+        assert_eq!(rig.executor.status().active_job, 1);
+        assert!(runs_on_table(&rig));
+        rig.run_until(20_000, |r| r.is_final(1));
+        assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
+        rig.check_on_tcp_line(0, start, c.pose);
+        rig.check_limits();
+        assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+    }
+
+    #[test]
+    fn a_line_whose_table_is_late_starts_on_constant_bounds_after_the_wait_and_keeps_them() {
         let (mut rig, released) = held();
         let c = rig.line_by(1, SHIFT, TURN);
         rig.step(&[c]);
+        let wait = table_wait_ticks(&rig);
+        assert_eq!(steps_until_active(&mut rig, 1), wait);
         assert!(!runs_on_table(&rig));
         released.store(true, Ordering::Relaxed);
         rig.run_until(20_000, |r| r.is_final(1) || runs_on_table(r));
         assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
         rig.check_limits();
         assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+    }
+
+    #[test]
+    fn a_line_without_a_table_to_wait_for_starts_at_once() {
+        for accepts in [true, false] {
+            let refiner = NoTables {
+                accepts,
+                asked: None,
+            };
+            let executor = Executor::with_refiner(&config(), 0xABCD, Box::new(refiner));
+            let mut rig = Rig::with(executor);
+            let c = rig.line_by(1, SHIFT, TURN);
+            rig.step(&[c]);
+            assert_eq!(rig.executor.status().active_job, 1, "accepts: {accepts}");
+            assert!(!runs_on_table(&rig));
+            rig.run_until(20_000, |r| r.is_final(1));
+            assert_eq!(rig.final_state(1), Some((state::DONE, 0)));
+        }
+    }
+
+    #[test]
+    fn the_wait_for_a_table_is_the_configured_one_and_at_most_a_quarter_of_the_line() {
+        assert_eq!(table_wait(0.15, 2.0), 0.15);
+        assert_eq!(table_wait(0.15, 0.2), 0.05);
+        assert_eq!(table_wait(0.0, 2.0), 0.0);
     }
 
     #[test]
