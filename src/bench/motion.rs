@@ -219,7 +219,21 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
         row("scale: ruckig / toppra on the MoveAxes".into(), &|r| {
             of(&r.joint, &r.joint_toppra)
         }),
+        OptimalityRow {
+            label: "scale: MoveLinear on constant bounds / as planned".into(),
+            ratios: of(&constant_bounds(p), &linear_as_planned(p))
+                .ok_or_else(|| "no line planned".to_string()),
+        },
     ]
+}
+
+/// Our durations of the linear moves on constant bounds.
+fn constant_bounds(problems: &Problems) -> Vec<f64> {
+    problems
+        .linear
+        .iter()
+        .map(|c| c.ours.constant_bounds_s)
+        .collect()
 }
 
 /// The conic problem's durations of the linear moves (velocity and acceleration only).
@@ -324,8 +338,8 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
          same joint v/a and TCP v/a limits but has no jerk limit: a lower bound, so ours is \
          expected slower; <1.0 would mean ours breaks a v/a limit. As planned: the faster of \
          the jerk-limited TOPP-RA table (with its speed cap) and the double S on constant \
-         bounds, as the planner's table thread plans a buffered line (a line sent to a \
-         standing arm starts on the double S); without jerk bound: TOPP-RA on toppra's \
+         bounds, as the planner's table thread plans a line (a standing arm waits for it up \
+         to planner.table_wait_ms, a buffered line gets it meanwhile); without jerk bound: TOPP-RA on toppra's \
          constraints alone (no cap), with the conic problem as its cross-check"
             .to_string(),
         "jerk-aware lower bound: the larger of toppra's duration and the time-optimal \
@@ -338,7 +352,9 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
             .to_string(),
         "scale: ruckig's jerk-limited optimum over toppra's v/a-only optimum of the same \
          joint moves (straight joint lines): what the jerk limit alone costs on such moves, \
-         so the part of the MoveLinear ratio beyond it comes from our planner"
+         so the part of the MoveLinear ratio beyond it comes from our planner; constant \
+         bounds / as planned: what a line gains by its table (a line runs on constant bounds \
+         when its table comes too late)"
             .to_string(),
     ];
     if !p.refused.is_empty() {
@@ -400,7 +416,12 @@ mod tests {
             .map(|c| c.ours)
             .chain(p.linear.iter().map(|c| c.ours))
         {
-            for d in [ours.as_planned_s, ours.no_reserve_s, ours.second_order_s] {
+            for d in [
+                ours.as_planned_s,
+                ours.no_reserve_s,
+                ours.second_order_s,
+                ours.constant_bounds_s,
+            ] {
                 assert!(d.is_finite() && d > 0.0, "{ours:?}");
             }
         }

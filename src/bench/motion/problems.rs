@@ -149,6 +149,9 @@ pub struct Ours {
     /// Linear moves only: with no override reserve and no jerk bound, the constraints toppra
     /// has (joint moves: as `no_reserve_s`).
     pub second_order_s: f64,
+    /// Linear moves only: on constant bounds, as the executor's tick plans them, so as a
+    /// standing arm runs a line whose table is late (joint moves: as `as_planned_s`).
+    pub constant_bounds_s: f64,
 }
 
 /// One rest-to-rest joint move (MoveAxes at 100 % of every limit).
@@ -310,6 +313,7 @@ fn draw_joint_case(robot: &Robot, rng: &mut Rng) -> Result<Option<JointCase>, Pr
             as_planned_s: planned.timing().profile.duration(),
             no_reserve_s: no_reserve.timing().profile.duration(),
             second_order_s: no_reserve.timing().profile.duration(),
+            constant_bounds_s: planned.timing().profile.duration(),
         },
     }))
 }
@@ -359,6 +363,10 @@ fn draw_linear_case(
         0.0,
     )
     .map_err(replan)?;
+    let constant_bounds =
+        LinearCase::plan_with(&robot.arm_in_the_tick(), start, &command, robot.reserve)
+            .map_err(replan)?
+            .ok_or_else(|| ProblemError::Replan("stationary on constant bounds".into()))?;
     let LinearPlan::Move(second_order) = second_order else {
         return Err(ProblemError::Replan("stationary without jerk bound".into()));
     };
@@ -389,6 +397,7 @@ fn draw_linear_case(
             as_planned_s: planned.timing().profile.duration(),
             no_reserve_s: no_reserve.timing().profile.duration(),
             second_order_s: second_order.timing().profile.duration(),
+            constant_bounds_s: constant_bounds.timing().profile.duration(),
         },
         conic_s: conic.timing().profile.duration(),
     };
