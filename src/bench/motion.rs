@@ -175,6 +175,8 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
     let as_planned = |ours: &[Ours]| ours.iter().map(|o| o.as_planned_s).collect::<Vec<_>>();
     let no_reserve = |ours: &[Ours]| ours.iter().map(|o| o.no_reserve_s).collect::<Vec<_>>();
     let second_order = |ours: &[Ours]| ours.iter().map(|o| o.second_order_s).collect::<Vec<_>>();
+    let constant_bounds =
+        |ours: &[Ours]| ours.iter().map(|o| o.constant_bounds_s).collect::<Vec<_>>();
     let row = |label: String, ratio: &dyn Fn(&Reference) -> Option<report::RatioStats>| {
         let ratios = match &results.reference {
             Ok(r) => {
@@ -221,19 +223,10 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
         }),
         OptimalityRow {
             label: "scale: MoveLinear on constant bounds / as planned".into(),
-            ratios: of(&constant_bounds(p), &linear_as_planned(p))
+            ratios: of(&constant_bounds(&linear), &linear_as_planned(p))
                 .ok_or_else(|| "no line planned".to_string()),
         },
     ]
-}
-
-/// Our durations of the linear moves on constant bounds.
-fn constant_bounds(problems: &Problems) -> Vec<f64> {
-    problems
-        .linear
-        .iter()
-        .map(|c| c.ours.constant_bounds_s)
-        .collect()
 }
 
 /// The conic problem's durations of the linear moves (velocity and acceleration only).
