@@ -411,13 +411,13 @@ impl Motion {
         };
     }
 
-    /// Advances to servo tick `to`. A standing arm starts the
-    /// next move of `sequences` past `cursor` (see [`Sequences::next`]) and moves the cursor
-    /// past it; a linear move only if it was planned from exactly where the arm stands, else
-    /// the arm waits for the executor to plan it from there, and no move before its
-    /// [`earliest_start_tick`](crate::queue::QueuedMove::earliest_start_tick). A running move with a planned blend starts the next
-    /// move the same way when the overlap begins. A primary move with `hold_after` holds the
-    /// primary sequence when it is done.
+    /// Advances to servo tick `to`. A standing arm starts the next move of `sequences` past
+    /// `cursor` (see [`Sequences::next`]) and moves the cursor past it; a linear move only if
+    /// it was planned from exactly where the arm stands, else the arm waits for the executor
+    /// to plan it from there, and no move before its
+    /// [`earliest_start_tick`](crate::queue::QueuedMove::earliest_start_tick). A running
+    /// move with a planned blend starts the next move the same way when the overlap begins.
+    /// A primary move with `hold_after` holds the primary sequence when it is done.
     /// State changes of jobs go to `report(job, state, code)`. A finished stop leaves the
     /// arm standing for this tick, so a stop's end is observable before the next move starts.
     pub fn advance(
