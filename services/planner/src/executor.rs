@@ -52,7 +52,7 @@ const PERIOD_RANGE_NS: core::ops::RangeInclusive<u64> = 10_000..=100_000_000;
 /// Room for waiting events beyond those of the queued moves.
 const EVENT_SLACK: usize = 256;
 /// Largest share of a line's duration on constant bounds a standing arm waits for its table.
-const TABLE_WAIT_SHARE: f64 = 0.25;
+pub const TABLE_WAIT_SHARE: f64 = 0.25;
 
 /// How long (s) a standing arm waits for the table of a line that takes `duration_s` on
 /// constant bounds before it starts on them: `configured_s` (`planner.table_wait_ms`), and
