@@ -332,8 +332,9 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
          expected slower; <1.0 would mean ours breaks a v/a limit. As planned: the faster of \
          the jerk-limited TOPP-RA table (with its speed cap) and the double S on constant \
          bounds, as the planner's table thread plans a line (a standing arm waits for it up \
-         to planner.table_wait_ms, a buffered line gets it meanwhile); without jerk bound: TOPP-RA on toppra's \
-         constraints alone (no cap), with the conic problem as its cross-check"
+         to planner.table_wait_ms, a buffered line gets it meanwhile); without jerk bound: \
+         TOPP-RA on toppra's constraints alone (no cap), with the conic problem as its \
+         cross-check"
             .to_string(),
         "jerk-aware lower bound: the larger of toppra's duration and the time-optimal \
          jerk-limited rest-to-rest time of the slowest single coordinate alone (ruckig, not \

@@ -1578,17 +1578,6 @@ mod tables {
         (table_wait(configured, line.timing().profile.duration()) / DT) as u64
     }
 
-    /// Steps until job `job` is active: the steps it took.
-    fn steps_until_active(rig: &mut Rig, job: u32) -> u64 {
-        let mut steps = 0;
-        while rig.executor.status().active_job != job {
-            assert!(steps < 10_000, "job {job} never started");
-            rig.step(&[]);
-            steps += 1;
-        }
-        steps
-    }
-
     #[test]
     fn a_line_sent_to_a_standing_arm_waits_for_its_table() {
         let (mut rig, released) = held();
@@ -1621,7 +1610,9 @@ mod tables {
         let c = rig.line_by(1, SHIFT, TURN);
         rig.step(&[c]);
         let wait = table_wait_ticks(&rig);
-        assert_eq!(steps_until_active(&mut rig, 1), wait);
+        let waited_from = rig.trace.len();
+        rig.run_until(10_000, |r| r.executor.status().active_job == 1);
+        assert_eq!((rig.trace.len() - waited_from) as u64, wait);
         assert!(!runs_on_table(&rig));
         released.store(true, Ordering::Relaxed);
         rig.run_until(20_000, |r| r.is_final(1) || runs_on_table(r));
