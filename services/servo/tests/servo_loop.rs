@@ -44,12 +44,21 @@ fn powers_up_follows_setpoints_stops_when_they_end_and_shuts_down() {
         thread::spawn(move || servo::run(&cfg, &shutdown))
     };
 
-    let next = || loop {
-        if !wait_for_wakeup(&feedback_wake, Duration::from_secs(2)).unwrap() {
-            panic!("no feedback; servo finished: {}", servo.is_finished());
-        }
-        if let Some(f) = receive_latest(&feedback).unwrap() {
-            return f;
+    // A wait may end early without a wake-up (a signal to the process interrupts it), so
+    // only the deadline means no feedback.
+    let next = || {
+        let deadline = Instant::now() + Duration::from_secs(2);
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            assert!(
+                !left.is_zero(),
+                "no feedback; servo finished: {}",
+                servo.is_finished()
+            );
+            wait_for_wakeup(&feedback_wake, left).unwrap();
+            if let Some(f) = receive_latest(&feedback).unwrap() {
+                return f;
+            }
         }
     };
 
