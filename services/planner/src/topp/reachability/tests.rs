@@ -213,6 +213,24 @@ proptest! {
         // demands on these wavy paths, up to twice).
         prop_assert!(bounded.duration() >= free.duration());
     }
+
+    /// The passes are skipped only for a table that would not be faster: with `longest` a
+    /// hair above the jerk-limited table's duration it is found, a hair below it is either
+    /// skipped or (as the caller then drops it) no faster.
+    #[test]
+    fn only_a_table_that_is_not_faster_is_skipped(path in wavy()) {
+        let l = cobot();
+        let samples = path.samples();
+        let (bounded, _) = time(&samples, &l, JerkBound::Joints, f64::INFINITY).unwrap();
+        let d = bounded.duration();
+        let above = time(&samples, &l, JerkBound::Joints, d * (1.0 + 1e-9));
+        prop_assert!(matches!(above, Ok((t, _)) if t.duration() == d), "{above:?}");
+        match time(&samples, &l, JerkBound::Joints, d * (1.0 - 1e-9)) {
+            Err(ToppError::NotFaster(_)) => {}
+            Ok((t, _)) => prop_assert_eq!(t.duration(), d),
+            Err(e) => prop_assert!(false, "{e}"),
+        }
+    }
 }
 
 #[test]
