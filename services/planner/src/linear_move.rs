@@ -663,8 +663,9 @@ fn timing(
 /// down and also holds `|q'''|·ṡ³` to [`LOCAL_THIRD_SHARE`] of the jerk limit at every point,
 /// and the speed capped everywhere where constant stop bounds stop to exist
 /// ([`JointBounds::stop_speed`], the worst point of the path). The first is the faster on
-/// most lines (`rc bench motion`, seed 1: 438 of 510 timings), so it is timed first: the
-/// second then often ends at a lower bound of its duration, before its jerk-limited passes.
+/// most lines (`rc bench motion --problems 60`, seed 1: 438 of 510 timings), so it is timed
+/// first: the second then often ends at a lower bound of its duration, before its
+/// jerk-limited passes.
 fn table_limits(
     command: &MotionCommand,
     survey: &Survey,
