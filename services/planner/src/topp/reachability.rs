@@ -75,8 +75,8 @@ const STEP: f64 = 1.0 / INTERVALS as f64;
 
 /// Times `samples` within `limits`: the time-optimal table (with `jerk`, the jerk-limited
 /// one) and the passes it took. A jerk-limited table is of use only if it takes less than
-/// `longest` (s): when the table without the jerk window or the first jerk-limited pass (lower
-/// bounds of its duration) does not, the passes after it are skipped
+/// `longest` (s): when the table without the jerk window or a jerk-limited pass before the
+/// last (each a lower bound of its duration) does not, the passes after it are skipped
 /// ([`ToppError::NotFaster`]).
 pub fn time(
     samples: &PathSamples,
@@ -93,16 +93,19 @@ pub fn time(
     if jerk == JerkBound::Off {
         return Ok((unlimited, 1));
     }
-    if unlimited.duration() >= longest {
-        return Err(ToppError::NotFaster(longest));
-    }
+    // Every pass below only lowers the speeds: each profile's duration is a lower bound of
+    // the next one's.
+    let faster = |x: &[f64; POINTS]| {
+        if table(x).is_ok_and(|t| t.duration() >= longest) {
+            return Err(ToppError::NotFaster(longest));
+        }
+        Ok(())
+    };
+    faster(&x)?;
     // Forward under the controllable sets alone: right but for the end of the path.
     let mut u = [0.0; INTERVALS];
     forward.jerk_greedy(&sets, &mut x, &mut u);
-    // The later passes only lower the speeds: this profile's duration is a lower bound too.
-    if table(&x).is_ok_and(|t| t.duration() >= longest) {
-        return Err(ToppError::NotFaster(longest));
-    }
+    faster(&x)?;
     // From the end under that profile: right but for the start, and it meets the forward
     // profile where that one is jerk-limited already.
     let mut reversed = forward.reversed();
@@ -111,6 +114,7 @@ pub fn time(
     }
     reversed.controllable(&mut sets)?;
     reversed.jerk_greedy(&sets, &mut x, &mut u);
+    faster(&x)?;
     let mut problem = forward;
     for (k, bound) in problem.bound.iter_mut().enumerate() {
         *bound = bound.min(x[INTERVALS - k]);
