@@ -95,17 +95,17 @@ pub fn time(
     }
     // Every pass below only lowers the speeds: each profile's duration is a lower bound of
     // the next one's.
-    let faster = |x: &[f64; POINTS]| {
+    let may_be_faster = |x: &[f64; POINTS]| {
         if table(x).is_ok_and(|t| t.duration() >= longest) {
             return Err(ToppError::NotFaster(longest));
         }
         Ok(())
     };
-    faster(&x)?;
+    may_be_faster(&x)?;
     // Forward under the controllable sets alone: right but for the end of the path.
     let mut u = [0.0; INTERVALS];
     forward.jerk_greedy(&sets, &mut x, &mut u);
-    faster(&x)?;
+    may_be_faster(&x)?;
     // From the end under that profile: right but for the start, and it meets the forward
     // profile where that one is jerk-limited already.
     let mut reversed = forward.reversed();
@@ -114,7 +114,7 @@ pub fn time(
     }
     reversed.controllable(&mut sets)?;
     reversed.jerk_greedy(&sets, &mut x, &mut u);
-    faster(&x)?;
+    may_be_faster(&x)?;
     let mut problem = forward;
     for (k, bound) in problem.bound.iter_mut().enumerate() {
         *bound = bound.min(x[INTERVALS - k]);
@@ -597,7 +597,7 @@ impl<'a> Problem<'a> {
     /// interval and the size of `s̈`): `sign·(u − before_u) ≤ window(u)`, solved by the
     /// Illinois variant of regula falsi between `before_u` (inside) and `limit`, until the
     /// room left is within [`WINDOW_TOLERANCE`] (stopping there made the jerk-limited passes
-    /// 1.5 to 1.9 times faster on the lines of `rc bench motion`).
+    /// 1.5 to 2 times faster on the lines of `rc bench motion`).
     #[allow(
         clippy::float_cmp,
         reason = "Some(true) and Some(false) are compared, not floats"
