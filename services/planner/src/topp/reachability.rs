@@ -44,7 +44,10 @@
 //! a last forward pass runs under it. What is left, where the estimates of a window were
 //! too optimistic, is found by checking every grid point of the result: before such a
 //! point the speed bound is lowered a little under the profile and the last pass repeated,
-//! at most [`MAX_REPAIRS`] times. All of it works on fixed-size arrays, without allocation.
+//! at most [`MAX_REPAIRS`] times. Every pass runs under the profile of the one before, so
+//! each profile's duration is a lower bound of the table's: a candidate that is already no
+//! faster than the best table so far stops there. All of it works on fixed-size arrays,
+//! without allocation.
 
 use shared_types::ipc::AXES;
 
