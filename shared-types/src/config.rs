@@ -151,7 +151,7 @@ pub struct ProfinetConfig {
     pub netmask: String,
     pub gateway: String,
     /// Folder of the NameOfStation and IP a controller sets permanently over DCP. Empty:
-    /// $XDG_STATE_HOME/rc/<instance>, or ~/.local/state/rc/<instance>.
+    /// `$XDG_STATE_HOME/rc/<instance>`, or `~/.local/state/rc/<instance>`.
     pub data_dir: String,
 }
 

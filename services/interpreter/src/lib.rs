@@ -1,6 +1,6 @@
 //! The SRCI interpreter service: the robot-interface state machine, the Active Command
 //! Register and the semantics of every implemented command, as a pure core ([`server`])
-//! wrapped by a small process loop ([`service`]).
+//! wrapped by a small process loop (`service`).
 
 pub mod acr;
 pub mod arm;

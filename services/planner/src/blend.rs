@@ -23,19 +23,19 @@
 //! the move's tool; for a joint move the TCP of the forward kinematics).
 //!
 //! - 0 EXACT_STOP: no overlap.
-//! - 11 RAMP_OVERLAP, parameter[0] = fraction `f`: the overlap is `f` times A's
+//! - 11 RAMP_OVERLAP, `parameter[0]` = fraction `f`: the overlap is `f` times A's
 //!   deceleration ramp (1.0: B starts when A starts braking).
-//! - 2 DEFINED_VELOCITY, parameter[0] = fraction `f`: B starts when A, braking, has slowed
+//! - 2 DEFINED_VELOCITY, `parameter[0]` = fraction `f`: B starts when A, braking, has slowed
 //!   to `f` times its peak path speed.
-//! - 3 CORNER_DISTANCE, parameter[0] = radius: B starts when A's TCP comes within the radius
+//! - 3 CORNER_DISTANCE, `parameter[0]` = radius: B starts when A's TCP comes within the radius
 //!   of A's end point (the corner).
-//! - 4 MAX_CORNER_DEVIATION, parameter[0] = distance: the longest overlap whose blended TCP
+//! - 4 MAX_CORNER_DEVIATION, `parameter[0]` = distance: the longest overlap whose blended TCP
 //!   path passes the corner no farther than the distance (a bisection on the overlap).
 //! - 10 CORNER_DISTANCE_2R, parameters = leave and join radius: the overlap starts where A's
 //!   TCP is within the leave radius of the corner and ends where B's TCP is the join radius
 //!   from it. One overlap cannot honour two different radii, so it is the shorter of the two:
 //!   the blended path leaves A no earlier and joins B no later than asked.
-//! - 12 CORNER_DISTANCE_1R, parameter[0] = radius: as 10 with both radii the same.
+//! - 12 CORNER_DISTANCE_1R, `parameter[0]` = radius: as 10 with both radii the same.
 //!
 //! Fractions above 1 count as 1; negative or non-finite parameters are refused.
 //!

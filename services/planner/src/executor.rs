@@ -10,7 +10,7 @@
 //!
 //! A move with a BlendingMode blends into the next move of its sequence if that one is
 //! buffered when the move's blend window begins (the executor decides that once per move,
-//! in a committed tick; [`blend`](crate::blend) plans the overlap); a WaitTime is a sequence
+//! in a committed tick; [`blend`] plans the overlap); a WaitTime is a sequence
 //! element that stands still (see [`motion`](crate::motion)).
 //!
 //! Timeline: the feedback of servo tick `k` arrives, the executor commits the point for tick

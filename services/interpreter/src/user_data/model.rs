@@ -96,7 +96,7 @@ pub struct DefaultDynamics {
     pub velocity_rate: u16,
     pub acceleration_rate: u16,
     /// Files written before the deceleration had a rate of its own lack it: they load with
-    /// [`UNSET_RATE`], which the loader replaces by the acceleration rate they meant.
+    /// `UNSET_RATE` (0xFFFF), which the loader replaces by the acceleration rate they meant.
     #[serde(default = "unset_rate")]
     pub deceleration_rate: u16,
     pub jerk_rate: u16,
