@@ -5,7 +5,8 @@
 //! # Problem
 //!
 //! A path `q(s)`, `s` in [0, 1], is given at the grid points `s_k = k/N` ([`INTERVALS`]`= N`)
-//! by its joint derivatives `q'`, `q''`, `q'''` and the TCP's `|p'|`, `|p''|` ([`PathSamples`]).
+//! by its joint derivatives `q'`, `q''`, `q'''` and the TCP's `|p'|`, `|p''|`, `|p'''|`
+//! ([`PathSamples`]; the TCP's third derivative counts in its jerk budget like the joints').
 //! With `b_k = ṡ²` at `s_k` and a constant path acceleration `a_k = (b_{k+1} − b_k)/(2Δs)` in
 //! interval `k` (so `b` is linear in `s` there), the joint velocity, joint acceleration and TCP
 //! limits are linear in `b`:
@@ -100,6 +101,8 @@ pub struct PathSamples {
     pub tcp_speed: [f64; POINTS],
     /// `|d²p/ds²|` of the TCP position, m.
     pub tcp_curvature: [f64; POINTS],
+    /// `|d³p/ds³|` of the TCP position, m (0 on a line run at a constant pace).
+    pub tcp_third: [f64; POINTS],
 }
 
 impl PathSamples {
@@ -111,6 +114,7 @@ impl PathSamples {
             third: [[0.0; AXES]; POINTS],
             tcp_speed: [0.0; POINTS],
             tcp_curvature: [0.0; POINTS],
+            tcp_third: [0.0; POINTS],
         }
     }
 }
@@ -558,6 +562,10 @@ fn speed_limits(
         if tcp > MOVING {
             v = v.min(GRID_MARGIN * limits.tcp_velocity / tcp);
         }
+        let tcp_third = largest(&|e| samples.tcp_third[e]);
+        if jerk == JerkBound::Joints && tcp_third > MOVING {
+            v = v.min((limits.third_share * limits.tcp_jerk / tcp_third).cbrt());
+        }
         for i in 0..AXES {
             let slope = largest(&|e| samples.slope[e][i]);
             if slope > MOVING {
@@ -687,7 +695,9 @@ fn path_jerk(samples: &PathSamples, limits: &ToppLimits, m: usize, v: f64, a: f6
     let mut jerk = f64::INFINITY;
     let tcp = samples.tcp_speed[m];
     if tcp > MOVING {
-        let left = limits.tcp_jerk - 3.0 * samples.tcp_curvature[m] * v * a;
+        let left = limits.tcp_jerk
+            - samples.tcp_third[m] * v * v * v
+            - 3.0 * samples.tcp_curvature[m] * v * a;
         jerk = jerk.min(left / tcp);
     }
     for i in 0..AXES {

@@ -156,6 +156,7 @@ fn envelope(samples: &PathSamples, k: usize) -> Envelope {
         third: [0.0; AXES],
         tcp_speed: 0.0,
         tcp_curvature: 0.0,
+        tcp_third: 0.0,
     };
     for p in k.saturating_sub(1)..=(k + 1).min(INTERVALS) {
         for i in 0..AXES {
@@ -165,6 +166,7 @@ fn envelope(samples: &PathSamples, k: usize) -> Envelope {
         }
         e.tcp_speed = e.tcp_speed.max(s.tcp_speed[p].abs());
         e.tcp_curvature = e.tcp_curvature.max(s.tcp_curvature[p].abs());
+        e.tcp_third = e.tcp_third.max(s.tcp_third[p].abs());
     }
     e
 }
@@ -362,7 +364,7 @@ impl JerkRows {
                 rows.len += 1;
             }
         };
-        push(l.tcp_jerk, e.tcp_speed, 0.0, e.tcp_curvature);
+        push(l.tcp_jerk, e.tcp_speed, e.tcp_third, e.tcp_curvature);
         for i in 0..AXES {
             push(l.jerk[i], e.slope[i], e.third[i], e.curvature[i]);
         }
@@ -387,6 +389,7 @@ struct Envelope {
     third: [f64; AXES],
     tcp_speed: f64,
     tcp_curvature: f64,
+    tcp_third: f64,
 }
 
 impl<'a> Problem<'a> {
@@ -475,7 +478,8 @@ impl<'a> Problem<'a> {
         let l = self.limits;
         let mut bound = f64::INFINITY;
         if e.tcp_curvature > MOVING {
-            bound = bound.min(GRID_MARGIN * l.tcp_jerk / (3.0 * e.tcp_curvature * v));
+            let left = (GRID_MARGIN * l.tcp_jerk - e.tcp_third * v * v * v).max(0.0);
+            bound = bound.min(left / (3.0 * e.tcp_curvature * v));
         }
         for i in 0..AXES {
             if e.curvature[i] > MOVING {
