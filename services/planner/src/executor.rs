@@ -944,7 +944,7 @@ impl Executor {
             Phase::Waiting {
                 left_s, duration_s, ..
             } => 100.0 * (1.0 - left_s / duration_s),
-            _ if active.is_some() => 100.0 * self.motion.path_position,
+            _ if active.is_some() => 100.0 * self.motion.travel().0,
             _ => 0.0,
         };
         // The interpreter counts the primary moves waiting, held ones included.
@@ -971,11 +971,11 @@ impl Executor {
         };
         // Lines and arcs are parameterised by their length: s is the share travelled.
         s.active_remaining_m = match active_plan {
-            Some(Path::Linear(m)) => (1.0 - self.motion.path_position).max(0.0) * m.length(),
+            Some(Path::Linear(m)) => (1.0 - self.motion.travel().0).max(0.0) * m.length(),
             _ => f64::NAN,
         };
         // The path acceleration tells speeding up from slowing down, on any path.
-        let (_, path_acceleration) = self.motion.path_rate;
+        let (_, _, path_acceleration) = self.motion.travel();
         s.moving = point.qd.iter().any(|v| v.abs() > MOVING_VELOCITY);
         s.accelerating = s.moving && path_acceleration > 1e-9;
         s.decelerating = s.moving && path_acceleration < -1e-9;

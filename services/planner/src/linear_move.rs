@@ -32,7 +32,12 @@
 //!    analysis, [`topp::reachability`]) finds the fastest `ṡ(s)` within the joint and TCP
 //!    velocity and acceleration limits at every sample (times the command's rates, the
 //!    acceleration held back by the override reserve), within the joints' and the TCP's jerk
-//!    budget, with the speed capped (below).
+//!    budget, with the speed capped (below). Besides the path position `s` it times the
+//!    path by a parameter that runs at the joints' pace ([`path_warp`](crate::path_warp)):
+//!    near a singular set the joints turn fast over a short piece of the TCP's path, and
+//!    by that parameter the jerk budget's terms lose far less to their magnitudes. The
+//!    fastest table is taken; progress, remaining distance and the acceleration bits are
+//!    reported along the TCP's path either way.
 //! 2. **Constant bounds**: one double-S profile on `s` with the tightest of
 //!    - the TCP limits of the robot (`cartesian` section) times the command's rates, divided
 //!      by the length of the path (the orientation has no Cartesian limit of its own: the
@@ -66,7 +71,7 @@
 
 use core::f64::consts::TAU;
 
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector3};
 use shared_types::config::{CartesianLimits, JointLimitsRad};
 use shared_types::ipc::{AXES, JointPoint, MotionCommand};
 use shared_types::pose;
@@ -77,6 +82,7 @@ use crate::joint_move::{MoveError, PathLimits, Timing, check_limits, validate_ti
 use crate::kinematics::selection::{ConfigModes, ModeError, TurnMode};
 use crate::kinematics::turns::TurnNumbers;
 use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
+use crate::path_warp::PathWarp;
 use crate::profile::{DoubleS, Profile};
 use crate::scale_brake::{COORDINATES, ScaleLimits};
 use crate::topp::{self, JerkBound, PathSamples, PathTimer, TableProfile, ToppLimits};
@@ -100,6 +106,19 @@ pub const CURVATURE_SHARE: f64 = 0.5;
 /// (`rc bench motion`, seed 1: 0.2 against [`topp::THIRD_SHARE`] made lines 1.070× the
 /// jerk-aware bound at the median instead of 1.096×; 0.1 and 0.3 gave 1.083).
 pub const LOCAL_THIRD_SHARE: f64 = 0.2;
+/// Shares of the acceleration and jerk limits for `|q''|·ṙ²` and `|q'''|·ṙ³` in the table
+/// candidate on the joints' pace ([`path_warp`](crate::path_warp)): there the path bends
+/// less sharply, and more of the budget for these terms was faster on the near-singular
+/// lines of `rc bench motion` (seed 1, lines 4 and 5: 1.81 and 2.03 s against 1.89 and
+/// 2.15 s with the point-by-point candidate's shares).
+const PACED_CURVATURE_SHARE: f64 = 0.7;
+const PACED_THIRD_SHARE: f64 = 0.35;
+/// Ratio of the fastest to the slowest pace of the joints along a path below which it is not
+/// timed on that pace ([`joint_pace`]).
+const UNEVEN_PACE: f64 = 1.1;
+/// Points per grid interval at which the second derivatives of a paced path are compared
+/// for its third derivatives.
+const PACED_SUBSTEPS: usize = 8;
 /// Step of `s` for the central differences of the joints.
 const DIFF_STEP: f64 = 1e-3;
 /// How closely (rad) the start branch must reproduce the start joints.
@@ -350,17 +369,89 @@ impl Line {
         ))
     }
 
-    /// `|dp/ds|` and `|d²p/ds²|` of the TCP position at `s`, by central differences kept
-    /// inside [0, 1].
-    fn tcp_derivatives(&self, s: f64) -> (f64, f64) {
+    /// `dp/ds` and `d²p/ds²` of the TCP position at `s`, by central differences kept inside
+    /// [0, 1].
+    fn tcp_derivatives(&self, s: f64) -> (Vector3<f64>, Vector3<f64>) {
         let c = s.clamp(DIFF_STEP, 1.0 - DIFF_STEP);
         let p = |s: f64| self.tcp(s).translation.vector;
         let (ahead, center, behind) = (p(c + DIFF_STEP), p(c), p(c - DIFF_STEP));
         let h = DIFF_STEP;
         (
-            ((ahead - behind) / (2.0 * h)).norm(),
-            ((ahead - 2.0 * center + behind) / (h * h)).norm(),
+            (ahead - behind) / (2.0 * h),
+            (ahead - 2.0 * center + behind) / (h * h),
         )
+    }
+
+    /// The joints and their derivatives by the timing parameter `r` of `warp` at `r`
+    /// (`s = σ(r)`): `q_r = q_s·σ'`, `q_rr = q_s·σ'' + q_ss·σ'²`.
+    fn warped_derivatives(
+        &self,
+        warp: Option<&PathWarp>,
+        r: f64,
+        previous: &[f64; AXES],
+    ) -> Option<JointDerivatives> {
+        let (s, slope, bend) = warp.map_or((r, 1.0, 0.0), |w| w.eval(r));
+        let (q, q_s, q_ss) = self.derivatives(s.clamp(0.0, 1.0), previous)?;
+        Some((
+            q,
+            q_s.map(|d| d * slope),
+            core::array::from_fn(|i| q_ss[i] * slope * slope + q_s[i] * bend),
+        ))
+    }
+
+    /// `|dp/dr|` and `|d²p/dr²|` of the TCP position at the timing parameter `r` of `warp`.
+    fn warped_tcp_derivatives(
+        &self,
+        warp: Option<&PathWarp>,
+        r: f64,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let (s, slope, bend) = warp.map_or((r, 1.0, 0.0), |w| w.eval(r));
+        let (p_s, p_ss) = self.tcp_derivatives(s.clamp(0.0, 1.0));
+        (p_s * slope, p_ss * (slope * slope) + p_s * bend)
+    }
+
+    /// The path's derivatives by the timing parameter of `warp` at its grid points into
+    /// `samples`; `None` where the branch has no solution (not on a surveyed line). The pace
+    /// bends the joints' paths between the grid points more than the path position does, so
+    /// the third derivatives come from the second ones at [`PACED_SUBSTEPS`] points per
+    /// interval: at a grid point the largest difference of the intervals on either side,
+    /// with the margin of the constant bounds.
+    fn warped_samples(&self, warp: &PathWarp, samples: &mut PathSamples) -> Option<()> {
+        const FINE: usize = PACED_SUBSTEPS * SAMPLES;
+        let mut previous = self.start;
+        let (mut bend_before, mut tcp_before) = ([0.0; AXES], Vector3::zeros());
+        // Largest |Δq_rr| and |Δp_rr| per fine step within every interval.
+        let mut third = [[0.0f64; AXES]; SAMPLES];
+        let mut tcp_third = [0.0f64; SAMPLES];
+        for j in 0..=FINE {
+            let r = j as f64 / FINE as f64;
+            let (q, slope, bend) = self.warped_derivatives(Some(warp), r, &previous)?;
+            let (p_r, p_rr) = self.warped_tcp_derivatives(Some(warp), r);
+            previous = q;
+            if j > 0 {
+                let k = (j - 1) / PACED_SUBSTEPS;
+                for i in 0..AXES {
+                    third[k][i] = third[k][i].max((bend[i] - bend_before[i]).abs());
+                }
+                tcp_third[k] = tcp_third[k].max((p_rr - tcp_before).norm());
+            }
+            (bend_before, tcp_before) = (bend, p_rr);
+            if j % PACED_SUBSTEPS == 0 {
+                let k = j / PACED_SUBSTEPS;
+                samples.slope[k] = slope;
+                samples.curvature[k] = bend;
+                samples.tcp_speed[k] = p_r.norm();
+                samples.tcp_curvature[k] = p_rr.norm();
+            }
+        }
+        let per_step = SAMPLING_MARGIN * FINE as f64;
+        for k in 0..=SAMPLES {
+            let (before, after) = (k.saturating_sub(1), k.min(SAMPLES - 1));
+            samples.third[k] =
+                core::array::from_fn(|i| per_step * third[before][i].max(third[after][i]));
+            samples.tcp_third[k] = per_step * tcp_third[before].max(tcp_third[after]);
+        }
+        Some(())
     }
 
     /// Follows the line at the survey samples: every point reachable in the start branch,
@@ -379,8 +470,9 @@ impl Line {
             end: self.start,
         };
         let mut previous_curvature: Option<[f64; AXES]> = None;
+        let mut tcp_curvature = [Vector3::zeros(); SAMPLES + 1];
         let step = 1.0 / SAMPLES as f64;
-        for k in 0..=SAMPLES {
+        for (k, tcp_bend) in tcp_curvature.iter_mut().enumerate() {
             let s = k as f64 / SAMPLES as f64;
             let (q, slope, curvature) = self
                 .derivatives(s, &survey.end)
@@ -419,9 +511,11 @@ impl Line {
             survey.end = q;
             samples.slope[k] = slope;
             samples.curvature[k] = curvature;
-            (samples.tcp_speed[k], samples.tcp_curvature[k]) = self.tcp_derivatives(s);
+            let (p_s, p_ss) = self.tcp_derivatives(s);
+            (samples.tcp_speed[k], samples.tcp_curvature[k]) = (p_s.norm(), p_ss.norm());
+            *tcp_bend = p_ss;
         }
-        third_derivatives(samples);
+        third_derivatives(samples, &tcp_curvature);
         Ok(survey)
     }
 }
@@ -434,6 +528,9 @@ pub struct LinearMove {
     target: [f64; AXES],
     /// Time scaling within the TCP and the joint limits.
     timing: Timing,
+    /// The timing parameter of a table timed by it (see [`path_warp`](crate::path_warp));
+    /// `None`: the profile runs on the path position `s` itself.
+    warp: Option<PathWarp>,
     /// The limits a stop on the time scale of a table keeps.
     scale_limits: ScaleLimits,
 }
@@ -477,18 +574,12 @@ impl LinearMove {
             // A reorientation too small to move any joint measurably.
             return Ok(LinearPlan::Stationary(start));
         }
+        let (timing, warp) = timing(command, &line, &survey, &samples, limits, arm, reserve)?;
         Ok(LinearPlan::Move(Self {
             line,
             target: survey.end,
-            timing: timing(
-                command,
-                &survey,
-                &samples,
-                limits,
-                path.length(),
-                arm,
-                reserve,
-            )?,
+            timing,
+            warp,
             scale_limits: scale_limits(command, arm),
         }))
     }
@@ -518,7 +609,8 @@ impl LinearMove {
     /// `|dp/ds|` and `|d²p/ds²|` (m) of the TCP's position at path position `s`: its speed
     /// along the path and (on an arc) its centripetal acceleration per unit `ṡ` and `ṡ²`.
     pub fn tcp_path_derivatives(&self, s: f64) -> (f64, f64) {
-        self.line.tcp_derivatives(s)
+        let (p_r, p_rr) = self.line.warped_tcp_derivatives(self.warp.as_ref(), s);
+        (p_r.norm(), p_rr.norm())
     }
 
     /// The length (m) of the TCP's path; `(1 − s)·length` is left at path position `s`.
@@ -526,10 +618,26 @@ impl LinearMove {
         self.line.path.length()
     }
 
+    /// The path position `s` (share of the TCP's path) and its rates `(s, ṡ, s̈)` at the
+    /// parameter `r` the move is timed by, moving at `(ṙ, r̈)`: the same unless the table
+    /// runs on the joints' pace.
+    pub fn travel(&self, r: f64, rd: f64, rdd: f64) -> (f64, f64, f64) {
+        match &self.warp {
+            Some(w) => {
+                let (s, slope, bend) = w.eval(r);
+                (s, slope * rd, bend * rd * rd + slope * rdd)
+            }
+            None => (r, rd, rdd),
+        }
+    }
+
     /// The joint point at path position `s` with path velocity `sd` and acceleration `sdd`,
     /// following `previous` (the point of the last tick). `s = 1` gives the target exactly.
     pub fn point(&self, s: f64, sd: f64, sdd: f64, previous: &[f64; AXES]) -> JointPoint {
-        let Some((q, slope, curvature)) = self.line.derivatives(s.clamp(0.0, 1.0), previous) else {
+        let Some((q, slope, curvature)) =
+            self.line
+                .warped_derivatives(self.warp.as_ref(), s.clamp(0.0, 1.0), previous)
+        else {
             // Not on a surveyed path: the samples lie within the reach of the branch with
             // the singularity margins to spare. Hold rather than jump.
             return JointPoint {
@@ -615,19 +723,25 @@ fn cartesian_limits(command: &MotionCommand, length: f64, tcp: &TcpLimits) -> Pa
 /// reserve pays for at every point.
 fn timing(
     command: &MotionCommand,
+    line: &Line,
     survey: &Survey,
     samples: &PathSamples,
     limits: PathLimits,
-    length: f64,
     arm: &Arm<'_>,
     reserve: f64,
-) -> Result<Timing, LinearError> {
+) -> Result<(Timing, Option<PathWarp>), LinearError> {
     let constant = Timing::plan(limits, reserve, command.duration_s);
     let Some(timer) = arm.timer else {
-        return Ok(constant?);
+        return Ok((constant?, None));
     };
-    let (candidates, override_rate) =
-        table_limits(command, survey, length, arm, reserve, timer.jerk());
+    let (candidates, override_rate) = table_limits(
+        command,
+        survey,
+        line.path.length(),
+        arm,
+        reserve,
+        timer.jerk(),
+    );
     let fastest_constant = DoubleS::new(
         limits.velocity,
         (1.0 - reserve) * limits.acceleration,
@@ -635,24 +749,67 @@ fn timing(
         limits.jerk,
     )
     .duration();
-    let mut fastest: Option<TableProfile> = None;
-    for candidate in candidates.iter().flatten() {
-        let longest = fastest.map_or(fastest_constant, |t| t.duration());
+    let mut fastest: Option<(TableProfile, Option<PathWarp>)> = None;
+    let mut try_table = |samples: &PathSamples, candidate: &ToppLimits, warp: Option<PathWarp>| {
+        let longest = fastest.map_or(fastest_constant, |(t, _)| t.duration());
         match timer.time(samples, candidate, longest) {
-            Ok(table) if table.duration() < longest => fastest = Some(table),
+            Ok(table) if table.duration() < longest => fastest = Some((table, warp)),
             Ok(_) | Err(topp::ToppError::NotFaster(_)) => {}
+            // The warped path is a further candidate: the line has its tables without it.
+            Err(e) if warp.is_some() => tracing::debug!("no table on the joints' pace ({e})"),
             Err(e) => tracing::warn!("time-optimal timing failed ({e})"),
         }
-    }
-    let Some(table) = fastest else {
-        return Ok(constant?);
     };
-    Ok(Timing::with_profile(
-        limits,
-        Profile::Table(table),
-        override_rate,
-        command.duration_s,
-    )?)
+    for candidate in candidates.iter().flatten() {
+        try_table(samples, candidate, None);
+    }
+    let paced = (timer.jerk() == JerkBound::Joints).then(|| joint_pace(samples, arm));
+    if let (Some(Some(warp)), Some(candidate)) = (paced, candidates[0]) {
+        let mut warped = PathSamples::zeros();
+        if line.warped_samples(&warp, &mut warped).is_some() {
+            let candidate = ToppLimits {
+                speed_cap: f64::INFINITY,
+                curvature_share: PACED_CURVATURE_SHARE,
+                third_share: PACED_THIRD_SHARE,
+                ..candidate
+            };
+            try_table(&warped, &candidate, Some(warp));
+        }
+    }
+    let Some((table, warp)) = fastest else {
+        return Ok((constant?, None));
+    };
+    Ok((
+        Timing::with_profile(
+            limits,
+            Profile::Table(table),
+            override_rate,
+            command.duration_s,
+        )?,
+        warp,
+    ))
+}
+
+/// The warp whose timing parameter runs at the pace of the joints and the TCP: `dr/ds` is
+/// the norm of their speeds per unit `s` over their velocity limits. `None` where that pace
+/// varies by less than [`UNEVEN_PACE`] along the path: the table on it was never the
+/// faster one there (`rc bench motion`, seed 1, 40 lines: it was on 19 lines, all with a
+/// pace that varies by a factor 1.10 or more; 10 lines vary by less).
+fn joint_pace(samples: &PathSamples, arm: &Arm<'_>) -> Option<PathWarp> {
+    let density = core::array::from_fn(|k| {
+        let tcp = samples.tcp_speed[k] / arm.tcp.velocity;
+        (0..AXES)
+            .map(|i| (samples.slope[k][i] / arm.joints.velocity[i]).powi(2))
+            .fold(tcp * tcp, |sum, x| sum + x)
+            .sqrt()
+    });
+    let (least, most) = density
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(l, m), g| (l.min(*g), m.max(*g)));
+    if most < UNEVEN_PACE * least {
+        return None;
+    }
+    PathWarp::from_density(&density)
 }
 
 /// The limits of the time-optimal timing and the override rate its reserve pays for. With
@@ -724,9 +881,9 @@ fn table_limits(
     (candidates, override_rate)
 }
 
-/// `d³q/ds³` of the samples from the differences of neighbouring `d²q/ds²`, the larger of
-/// both sides.
-fn third_derivatives(samples: &mut PathSamples) {
+/// `d³q/ds³` and `|d³p/ds³|` of the samples from the differences of neighbouring `d²q/ds²`
+/// and `d²p/ds²` (`tcp_curvature`), the larger of both sides.
+fn third_derivatives(samples: &mut PathSamples, tcp_curvature: &[Vector3<f64>; SAMPLES + 1]) {
     let step = 1.0 / SAMPLES as f64;
     for k in 0..=SAMPLES {
         let (before, after) = (k.saturating_sub(1), (k + 1).min(SAMPLES));
@@ -737,6 +894,8 @@ fn third_derivatives(samples: &mut PathSamples) {
                 .max((c[after][i] - c[k][i]).abs())
                 / step
         });
+        let p = tcp_curvature;
+        samples.tcp_third[k] = (p[k] - p[before]).norm().max((p[after] - p[k]).norm()) / step;
     }
 }
 
@@ -1228,6 +1387,120 @@ mod tests {
             table.duration()
         );
         setup.check_limits(&setup.run(&m, start));
+    }
+
+    /// Near the elbow's singular set the wrist turns fast over a few millimetres of the
+    /// TCP's path: on the joints' pace the table is much faster than the best one by the
+    /// path position, and keeps the joint and TCP limits, on the line, with its progress
+    /// reported along the TCP's path.
+    /// The slowest line of `rc bench motion` (seed 1) against its jerk-limited optimum:
+    /// 14.5 mm with the elbow nearly stretched. Its start, command and plan.
+    fn near_singular_line(setup: &Setup) -> ([f64; AXES], MotionCommand, LinearMove) {
+        let start = [1.3036, 3.7500, 0.0480, 2.4700, 5.8116, 1.4327];
+        let c = linear_to([-0.14678, -0.47502, -0.39669, 1.68284, -1.05262, 1.26597]);
+        let m = setup.planned(start, &c);
+        (start, c, m)
+    }
+
+    #[test]
+    fn a_line_near_a_singular_set_runs_on_the_joints_pace() {
+        let setup = Setup::new();
+        let (start, c, m) = near_singular_line(&setup);
+        let warp = m.warp.expect("timed on the joints' pace");
+        // The best table by the path position: the same survey and candidates.
+        let mut samples = PathSamples::zeros();
+        let survey = m.line.survey(&setup.joints, &mut samples).unwrap();
+        let (candidates, _) = table_limits(
+            &c,
+            &survey,
+            m.length(),
+            &setup.arm(),
+            0.2,
+            JerkBound::Joints,
+        );
+        let by_position = candidates
+            .iter()
+            .flatten()
+            .filter_map(|l| setup.timer.time(&samples, l, f64::INFINITY).ok())
+            .map(|t| t.duration())
+            .fold(f64::INFINITY, f64::min);
+        let duration = m.timing().profile.duration();
+        assert!(
+            duration < 0.85 * by_position,
+            "{duration} s against {by_position} s"
+        );
+        let points = setup.run(&m, start);
+        setup.check_limits(&points);
+        let tcp: Vec<Vector3<f64>> = points
+            .iter()
+            .map(|p| setup.tcp_of(&p.q, &c).translation.vector)
+            .collect();
+        let (pa, pb) = (tcp[0], pose::isometry(c.pose).translation.vector);
+        for w in tcp.windows(3) {
+            assert!(off_line(&w[1], &pa, &pb) < 1e-5);
+            let speed = (w[2] - w[1]).norm() / DT;
+            let acceleration = (w[2] - 2.0 * w[1] + w[0]).norm() / (DT * DT);
+            assert!(speed <= setup.tcp.velocity * 1.001, "{speed} m/s");
+            assert!(
+                acceleration <= setup.tcp.acceleration * 1.01,
+                "{acceleration} m/s²"
+            );
+        }
+        // The share travelled is the TCP's, from 0 to 1.
+        for k in 0..=20 {
+            let r = f64::from(k) / 20.0;
+            let (s, _, _) = m.travel(r, 0.0, 0.0);
+            let at = m.tcp(s).translation.vector;
+            assert!(((at - pa).norm() - s * m.length()).abs() < 1e-9, "r = {r}");
+        }
+        assert_eq!(
+            (m.travel(0.0, 0.0, 0.0).0, m.travel(1.0, 0.0, 0.0).0),
+            (0.0, 1.0)
+        );
+        assert!(warp.eval(0.5).1 > 0.0);
+    }
+
+    /// The third derivatives of a paced path (which the jerk budget of its table counts)
+    /// bound the path's own between the grid points: the second derivatives at 32 points
+    /// per interval change no faster than the samples of the interval and its neighbours
+    /// say. Near a singular set, where the pace bends the joints' paths most.
+    #[test]
+    fn a_paced_path_bends_no_faster_than_its_samples_say() {
+        let setup = Setup::new();
+        let (start, _, m) = near_singular_line(&setup);
+        let mut by_position = PathSamples::zeros();
+        m.line.survey(&setup.joints, &mut by_position).unwrap();
+        let warp = joint_pace(&by_position, &setup.arm()).unwrap();
+        let mut samples = PathSamples::zeros();
+        m.line.warped_samples(&warp, &mut samples).unwrap();
+        const FINE: usize = 32;
+        let step = 1.0 / (SAMPLES * FINE) as f64;
+        let mut previous = start;
+        let bends: Vec<_> = (0..=SAMPLES * FINE)
+            .map(|j| {
+                let (q, _, bend) = m
+                    .line
+                    .warped_derivatives(Some(&warp), j as f64 * step, &previous)
+                    .unwrap();
+                previous = q;
+                bend
+            })
+            .collect();
+        for k in 0..SAMPLES {
+            let around = k.saturating_sub(1)..=(k + 2).min(SAMPLES);
+            for i in 0..AXES {
+                let said = samples.third[around.clone()]
+                    .iter()
+                    .fold(0.0f64, |m, t| m.max(t[i]));
+                let fastest = (k * FINE..(k + 1) * FINE)
+                    .map(|j| (bends[j + 1][i] - bends[j][i]).abs() / step)
+                    .fold(0.0, f64::max);
+                assert!(
+                    fastest <= said,
+                    "interval {k}, joint {i}: {fastest} > {said}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -323,6 +323,24 @@ impl Motion {
         }
     }
 
+    /// How far the running, blending or braking move has travelled along its path, as the
+    /// share of the path and its rates `(s, ṡ, s̈)`: [`path_position`](Self::path_position)
+    /// and [`path_rate`](Self::path_rate) where the profile runs on the path position itself,
+    /// converted where a line's table runs on the joints' pace.
+    pub fn travel(&self) -> (f64, f64, f64) {
+        let (rd, rdd) = self.path_rate;
+        let plan = match &self.phase {
+            Phase::Running(running) => &running.plan,
+            Phase::Blending(blend) => &blend.plan,
+            Phase::Braking { plan, .. } => plan,
+            Phase::Idle | Phase::Waiting { .. } => return (self.path_position, rd, rdd),
+        };
+        match plan {
+            Path::Linear(m) => m.travel(self.path_position, rd, rdd),
+            Path::Joint(_) => (self.path_position, rd, rdd),
+        }
+    }
+
     /// Whether two moves overlap now (SRCI IsBlending).
     pub fn is_blending(&self) -> bool {
         matches!(self.phase, Phase::Blending(_))
