@@ -618,6 +618,15 @@ impl LinearMove {
         self.line.path.length()
     }
 
+    /// The joints at path position `s` (share of the TCP's path, whatever parameter the move
+    /// is timed by), next to `previous`; `None` off the surveyed path.
+    pub fn joints_at(&self, s: f64, previous: &[f64; AXES]) -> Option<[f64; AXES]> {
+        if s >= 1.0 {
+            return Some(self.target);
+        }
+        self.line.joints_at(s.max(0.0), previous)
+    }
+
     /// The path position `s` (share of the TCP's path) and its rates `(s, ṡ, s̈)` at the
     /// parameter `r` the move is timed by, moving at `(ṙ, r̈)`: the same unless the table
     /// runs on the joints' pace.
