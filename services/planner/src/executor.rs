@@ -939,12 +939,14 @@ impl Executor {
         let s = &mut self.status;
         s.tick = feedback.tick;
         let active = self.motion.running();
+        // Along the TCP's path, whatever parameter the move is timed by.
+        let (travelled, _, path_acceleration) = self.motion.travel();
         s.active_job = active.map_or(0, |active| active.job);
         s.active_progress = match self.motion.phase {
             Phase::Waiting {
                 left_s, duration_s, ..
             } => 100.0 * (1.0 - left_s / duration_s),
-            _ if active.is_some() => 100.0 * self.motion.travel().0,
+            _ if active.is_some() => 100.0 * travelled,
             _ => 0.0,
         };
         // The interpreter counts the primary moves waiting, held ones included.
@@ -971,11 +973,10 @@ impl Executor {
         };
         // Lines and arcs are parameterised by their length: s is the share travelled.
         s.active_remaining_m = match active_plan {
-            Some(Path::Linear(m)) => (1.0 - self.motion.travel().0).max(0.0) * m.length(),
+            Some(Path::Linear(m)) => (1.0 - travelled).max(0.0) * m.length(),
             _ => f64::NAN,
         };
         // The path acceleration tells speeding up from slowing down, on any path.
-        let (_, _, path_acceleration) = self.motion.travel();
         s.moving = point.qd.iter().any(|v| v.abs() > MOVING_VELOCITY);
         s.accelerating = s.moving && path_acceleration > 1e-9;
         s.decelerating = s.moving && path_acceleration < -1e-9;
