@@ -1145,6 +1145,10 @@ mod tests {
             // Points far enough apart to make a well-defined circle.
             prop_assume!(sorted[1] - sorted[0] > 0.05 && sorted[2] - sorted[1] > 0.05 && TAU - sorted[2] + sorted[0] > 0.05);
             let (p0, aux, p1) = (at(angles[0]), at(angles[1]), at(angles[2]));
+            // And not so close on a small circle that the path refuses them as collinear
+            // (the triangle's smallest height within COLLINEAR_M).
+            let longest = (aux - p0).norm().max((p1 - p0).norm()).max((p1 - aux).norm());
+            prop_assume!((aux - p0).cross(&(p1 - p0)).norm() / longest > 2.0 * COLLINEAR_M);
             let start = Isometry3::from_parts(Translation3::from(p0), UnitQuaternion::identity());
             let c = circular(0, aux.into(), p1.into());
             let path = CartesianPath::new(&c, &start).unwrap();
