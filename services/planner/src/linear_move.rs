@@ -109,15 +109,16 @@ pub const LOCAL_THIRD_SHARE: f64 = 0.2;
 /// Shares of the acceleration and jerk limits for `|q''|·ṙ²` and `|q'''|·ṙ³` in the table
 /// candidate on the joints' pace ([`path_warp`](crate::path_warp)): there the path bends
 /// less sharply, and more of the budget for these terms was faster on the near-singular
-/// lines of `rc bench motion` (seed 1, lines 4 and 5: 1.81 and 2.03 s against 1.89 and
-/// 2.15 s with the point-by-point candidate's shares).
+/// lines of `rc bench motion` (seed 1, lines 4 and 5, in a trial with an earlier pace that
+/// was only once differentiable: 1.81 and 2.03 s against 1.89 and 2.15 s with the
+/// point-by-point candidate's shares).
 const PACED_CURVATURE_SHARE: f64 = 0.7;
 const PACED_THIRD_SHARE: f64 = 0.35;
 /// Ratio of the fastest to the slowest pace of the joints along a path below which it is not
 /// timed on that pace ([`joint_pace`]).
 const UNEVEN_PACE: f64 = 1.1;
 /// Ratio of the fastest to the slowest pace from which the table on the joints' pace is
-/// timed first: it was the fastest on 14 of the 17 such lines of those 40.
+/// timed first: it was the fastest on 16 of the 19 such lines of those 40.
 const PACED_FIRST: f64 = 1.5;
 /// Points per grid interval at which the second derivatives of a paced path are compared
 /// for its third derivatives.
@@ -815,8 +816,8 @@ fn timing(
 /// The warp whose timing parameter runs at the pace of the joints and the TCP: `dr/ds` is
 /// the norm of their speeds per unit `s` over their velocity limits. `None` where that pace
 /// varies by less than [`UNEVEN_PACE`] along the path: the table on it was never the
-/// faster one there (`rc bench motion`, seed 1, 40 lines: it was on 19 lines, all with a
-/// pace that varies by a factor 1.10 or more; 10 lines vary by less). With the warp, the
+/// faster one there (`rc bench motion`, seed 1, 40 lines: it was on 25 lines, all with a
+/// pace that varies by a factor 1.10 or more; 9 lines vary by less). With the warp, the
 /// ratio of the fastest to the slowest pace.
 fn joint_pace(samples: &PathSamples, arm: &Arm<'_>) -> Option<(PathWarp, f64)> {
     let density = core::array::from_fn(|k| {
