@@ -124,11 +124,12 @@ fn buffered_and_aborting_moves_with_progress() {
         Duration::from_secs(10),
     );
     assert_eq!((s.state, s.code), (state::DONE, 0), "{s:?}");
+    // Seen from the PLC over the real processes, the move cannot end before its Time (this
+    // move takes well under a second without it); how late it ends depends on the load of
+    // a shared machine (2.3 s once in CI), so the wall clock bounds it from below only. The
+    // exact duration is the planner's unit test (requested_duration_stretches_or_is_rejected).
     let took = s.final_at.expect("final") - s.active_at.expect("active");
-    assert!(
-        (1.4..1.8).contains(&took.as_secs_f64()),
-        "Time 1500 ms took {took:?}"
-    );
+    assert!(took.as_secs_f64() >= 1.4, "Time 1500 ms took {took:?}");
     let mut impossible = MoveAxesAbsolute::to(a);
     impossible.time_ms = 20;
     let s = execute(
