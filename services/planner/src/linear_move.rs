@@ -386,15 +386,14 @@ impl Line {
         )
     }
 
-    /// The joints and their derivatives by the timing parameter `r` of `warp` at `r`
-    /// (`s = σ(r)`): `q_r = q_s·σ'`, `q_rr = q_s·σ'' + q_ss·σ'²`.
+    /// The joints and their derivatives by the timing parameter at a point `at` of its warp
+    /// (`(s, σ', σ'')`, see [`pace_at`]): `q_r = q_s·σ'`, `q_rr = q_s·σ'' + q_ss·σ'²`.
     fn warped_derivatives(
         &self,
-        warp: Option<&PathWarp>,
-        r: f64,
+        at: (f64, f64, f64),
         previous: &[f64; AXES],
     ) -> Option<JointDerivatives> {
-        let (s, slope, bend) = warp.map_or((r, 1.0, 0.0), |w| w.eval(r));
+        let (s, slope, bend) = at;
         let (q, q_s, q_ss) = self.derivatives(s.clamp(0.0, 1.0), previous)?;
         Some((
             q,
@@ -403,13 +402,10 @@ impl Line {
         ))
     }
 
-    /// `|dp/dr|` and `|d²p/dr²|` of the TCP position at the timing parameter `r` of `warp`.
-    fn warped_tcp_derivatives(
-        &self,
-        warp: Option<&PathWarp>,
-        r: f64,
-    ) -> (Vector3<f64>, Vector3<f64>) {
-        let (s, slope, bend) = warp.map_or((r, 1.0, 0.0), |w| w.eval(r));
+    /// `dp/dr` and `d²p/dr²` of the TCP position at a point `at` of the warp (as
+    /// [`warped_derivatives`](Self::warped_derivatives)).
+    fn warped_tcp_derivatives(&self, at: (f64, f64, f64)) -> (Vector3<f64>, Vector3<f64>) {
+        let (s, slope, bend) = at;
         let (p_s, p_ss) = self.tcp_derivatives(s.clamp(0.0, 1.0));
         (p_s * slope, p_ss * (slope * slope) + p_s * bend)
     }
@@ -428,9 +424,9 @@ impl Line {
         let mut third = [[0.0f64; AXES]; SAMPLES];
         let mut tcp_third = [0.0f64; SAMPLES];
         for j in 0..=FINE {
-            let r = j as f64 / FINE as f64;
-            let (q, slope, bend) = self.warped_derivatives(Some(warp), r, &previous)?;
-            let (p_r, p_rr) = self.warped_tcp_derivatives(Some(warp), r);
+            let at = warp.eval(j as f64 / FINE as f64);
+            let (q, slope, bend) = self.warped_derivatives(at, &previous)?;
+            let (p_r, p_rr) = self.warped_tcp_derivatives(at);
             previous = q;
             if j > 0 {
                 let k = (j - 1) / PACED_SUBSTEPS;
@@ -610,10 +606,13 @@ impl LinearMove {
         self.line.tcp(s)
     }
 
-    /// `|dp/ds|` and `|d²p/ds²|` (m) of the TCP's position at path position `s`: its speed
-    /// along the path and (on an arc) its centripetal acceleration per unit `ṡ` and `ṡ²`.
-    pub fn tcp_path_derivatives(&self, s: f64) -> (f64, f64) {
-        let (p_r, p_rr) = self.line.warped_tcp_derivatives(self.warp.as_ref(), s);
+    /// `|dp/dr|` and `|d²p/dr²|` (m) of the TCP's position at the parameter `r` the move is
+    /// timed by (the path position unless the table runs on the joints' pace): its speed
+    /// along the path and (on an arc) its centripetal acceleration per unit `ṙ` and `ṙ²`.
+    pub fn tcp_path_derivatives(&self, r: f64) -> (f64, f64) {
+        let (p_r, p_rr) = self
+            .line
+            .warped_tcp_derivatives(pace_at(self.warp.as_ref(), r));
         (p_r.norm(), p_rr.norm())
     }
 
@@ -635,22 +634,16 @@ impl LinearMove {
     /// parameter `r` the move is timed by, moving at `(ṙ, r̈)`: the same unless the table
     /// runs on the joints' pace.
     pub fn travel(&self, r: f64, rd: f64, rdd: f64) -> (f64, f64, f64) {
-        match &self.warp {
-            Some(w) => {
-                let (s, slope, bend) = w.eval(r);
-                (s, slope * rd, bend * rd * rd + slope * rdd)
-            }
-            None => (r, rd, rdd),
-        }
+        let (s, slope, bend) = pace_at(self.warp.as_ref(), r);
+        (s, slope * rd, bend * rd * rd + slope * rdd)
     }
 
-    /// The joint point at path position `s` with path velocity `sd` and acceleration `sdd`,
+    /// The joint point at the parameter `s` the move is timed by (the path position unless
+    /// the table runs on the joints' pace) with its velocity `sd` and acceleration `sdd`,
     /// following `previous` (the point of the last tick). `s = 1` gives the target exactly.
     pub fn point(&self, s: f64, sd: f64, sdd: f64, previous: &[f64; AXES]) -> JointPoint {
-        let Some((q, slope, curvature)) =
-            self.line
-                .warped_derivatives(self.warp.as_ref(), s.clamp(0.0, 1.0), previous)
-        else {
+        let at = pace_at(self.warp.as_ref(), s.clamp(0.0, 1.0));
+        let Some((q, slope, curvature)) = self.line.warped_derivatives(at, previous) else {
             // Not on a surveyed path: the samples lie within the reach of the branch with
             // the singularity margins to spare. Hold rather than jump.
             return JointPoint {
@@ -811,6 +804,11 @@ fn timing(
         )?,
         warp,
     ))
+}
+
+/// `(s, ds/dr, d²s/dr²)` at the timing parameter `r` of `warp`; without one `r` is `s`.
+fn pace_at(warp: Option<&PathWarp>, r: f64) -> (f64, f64, f64) {
+    warp.map_or((r, 1.0, 0.0), |w| w.eval(r))
 }
 
 /// The warp whose timing parameter runs at the pace of the joints and the TCP: `dr/ds` is
@@ -1504,7 +1502,7 @@ mod tests {
             .map(|j| {
                 let (q, _, bend) = m
                     .line
-                    .warped_derivatives(Some(&warp), j as f64 * step, &previous)
+                    .warped_derivatives(warp.eval(j as f64 * step), &previous)
                     .unwrap();
                 previous = q;
                 bend
