@@ -1482,6 +1482,23 @@ mod tests {
         assert!(warp.eval(0.5).1 > 0.0);
     }
 
+    /// A paced line whose first jerk-limited pass brakes to rest a few grid points before
+    /// the end (at full braking the curvature term leaves the jerk window no room to ease
+    /// off): beyond its peak that pass bounds the passes after it no longer, so the line
+    /// runs on its pace (the bench's line 4 of seed 1: 0.87 s, where the rest before the
+    /// end made the paced table fail and left the 1.27 s of the table by the path position).
+    #[test]
+    fn a_first_pass_that_stops_short_does_not_hold_the_paced_table_back() {
+        let setup = Setup::new();
+        let start = [-4.31017, 4.22901, 0.80554, 0.75634, -0.93800, -4.52948];
+        let c = linear_to([-0.01842, -0.11373, -0.64094, 1.95136, -1.32038, 2.71164]);
+        let m = setup.planned(start, &c);
+        assert!(m.warp.is_some(), "timed on the joints' pace");
+        let duration = m.timing().profile.duration();
+        assert!(duration < 1.0, "{duration} s");
+        setup.check_limits(&setup.run(&m, start));
+    }
+
     /// The third derivatives of a paced path (which the jerk budget of its table counts)
     /// bound the path's own between the grid points: the second derivatives at 32 points
     /// per interval change no faster than the samples of the interval and its neighbours

@@ -41,7 +41,8 @@
 //! which no forward look-ahead sees: the same pass on the reversed path (braking seen as
 //! speeding up, from the end), under the forward profile as its speed bound, ends at rest
 //! with a jerk-limited ramp and meets the forward profile where that one is jerk-limited;
-//! a last forward pass runs under it. What is left, where the estimates of a window were
+//! a last forward pass runs under it. (A forward profile that comes to rest before the end
+//! bounds the reversed pass only up to its peak before that rest.) What is left, where the estimates of a window were
 //! too optimistic, is found by checking every grid point of the result: before such a
 //! point the speed bound is lowered a little under the profile and the last pass repeated,
 //! at most [`MAX_REPAIRS`] times. Every pass runs under the profile of the one before, so
@@ -109,11 +110,14 @@ pub fn time(
     let mut u = [0.0; INTERVALS];
     forward.jerk_greedy(&sets, &mut x, &mut u);
     may_be_faster(&x)?;
-    // From the end under that profile: right but for the start, and it meets the forward
-    // profile where that one is jerk-limited already.
+    // From the end under that profile (up to where it is of use): right but for the start,
+    // and it meets the forward profile where that one is jerk-limited already.
     let mut reversed = forward.reversed();
+    let trusted = forward.trusted_until(&x);
     for (k, bound) in reversed.bound.iter_mut().enumerate() {
-        *bound = bound.min(x[INTERVALS - k]);
+        if INTERVALS - k <= trusted {
+            *bound = bound.min(x[INTERVALS - k]);
+        }
     }
     reversed.controllable(&mut sets)?;
     reversed.jerk_greedy(&sets, &mut x, &mut u);
@@ -704,6 +708,18 @@ impl<'a> Problem<'a> {
             u[k] = (x[k + 1] - x[k]) / (2.0 * STEP);
             (before, before_u) = (x[k], u[k]);
         }
+    }
+
+    /// The last grid point up to which the profile `x` of the first jerk-limited pass bounds
+    /// the reversed one: the end, unless the pass came to rest before it (braking at the
+    /// largest rate where the curvature term leaves its jerk window no room to ease off, it
+    /// overshoots the controllable set's edge into a stop); then its peak before that rest.
+    /// A rest inside the bound would hold every later pass to a standstill there.
+    fn trusted_until(&self, x: &[f64; POINTS]) -> usize {
+        let Some(rest) = (1..INTERVALS).find(|&k| x[k] <= self.slack) else {
+            return INTERVALS;
+        };
+        (0..rest).fold(0, |best, k| if x[k] > x[best] { k } else { best })
     }
 
     /// The first grid point where the change of `s̈` exceeds its jerk window, if any.
