@@ -26,9 +26,11 @@
 //! The [`TableProfile`] blends `s̈` linearly in time between the middles of neighbouring
 //! intervals, so around grid point `m` the path jerk is `(u_m − u_{m−1})` over the time
 //! between those middles (`u_{−1} = u_N = 0`). With `q⃛ = q'''·ṡ³ + q''·ṡ·(2·s̈ + s̈_blend) +
-//! q'·s⃛` the joints' jerk budget leaves `J_m = min_i (j_i − |q'''_i|·ṡ³ − 3·|q''_i|·ṡ·|s̈|)/|q'_i|`
-//! for `|s⃛|` (the largest magnitudes of the points around `m`, the largest `ṡ` and `|s̈|`
-//! around it; the TCP likewise), so the change of `u` at `m` has a window. To keep the
+//! q'·s⃛` the joints' jerk budget leaves `s⃛` a window `[−down_m, up_m]`: per joint
+//! `(j_i − |q'''_i|·ṡ³ ∓ 3·σ_i·q''_i·ṡ·s̈)/|q'_i|`, `σ_i` the sign of `q'_i`, over the
+//! ranges of `ṡ`, `s̈` and `q''` around `m` and the largest `|q'''|`, `|q'|` there (where
+//! `q'_i` changes sign around `m`, or for the TCP, `3·|q''|·ṡ·|s̈|` either way; see
+//! [`JerkRows`]), so the change of `u` at `m` has a window. To keep the
 //! budget positive the speed is capped where `|q'''|·ṡ³` would take more than the share
 //! [`ToppLimits::third_share`] of it and `|s̈|` is held to what is left for `3·|q''|·ṡ·|s̈|` at the stage's speed bound (the
 //! largest speed around the stage, so at the speed the stage ends up with the term takes
@@ -341,46 +343,102 @@ struct Point {
     tcp_curvature: f64,
 }
 
-/// The jerk budgets of a grid point for `|s⃛|`, one row per moving joint and the TCP:
-/// `budget − third·ṡ³ − cross·ṡ·|s̈|`, each limit's terms over its `|q'|` (or `|p'|`) once,
-/// as the jerk-limited passes ask for a point's window many times at different speeds.
+/// The jerk budgets of a grid point for `s⃛`, one row per moving joint and the TCP, each
+/// limit's terms over its largest `|q'|` (or `|p'|`) around the point once, as the
+/// jerk-limited passes ask for a point's window many times at different speeds: with `σ`
+/// the sign of `q'`, `|q⃛| ≤ j` is `|σ·q'''/|q'|·ṡ³ + 3·σ·q''/|q'|·ṡ·s̈ + s⃛| ≤ j/|q'|`, so
+/// `s⃛` may rise by `budget − third·ṡ³ − max(cross·ṡ·s̈)` and fall by
+/// `budget − third·ṡ³ + min(cross·ṡ·s̈)`, `cross` the range of `3·σ·q''/|q'|` around the
+/// point. The curvature term counts with its sign where `q'` keeps its sign around the
+/// point (braking where `q''` and `q'` have the same sign, it leaves more room to ease off
+/// than to brake harder); elsewhere, for `|q'''|` and for the TCP (whose derivatives are
+/// norms) by its magnitude either way.
 #[derive(Clone, Copy)]
 struct JerkRows {
     budget: [f64; AXES + 1],
     third: [f64; AXES + 1],
-    cross: [f64; AXES + 1],
+    /// `(lowest, highest)` of `3·σ·q''/|q'|` around the point.
+    cross: [(f64, f64); AXES + 1],
     len: usize,
 }
 
 impl JerkRows {
-    fn new(e: &Envelope, l: &ToppLimits) -> Self {
+    fn new(samples: &PathSamples, k: usize, e: &Envelope, l: &ToppLimits) -> Self {
         let mut rows = Self {
             budget: [0.0; AXES + 1],
             third: [0.0; AXES + 1],
-            cross: [0.0; AXES + 1],
+            cross: [(0.0, 0.0); AXES + 1],
             len: 0,
         };
-        let mut push = |jerk: f64, slope: f64, third: f64, curvature: f64| {
+        let mut push = |jerk: f64, slope: f64, third: f64, cross: (f64, f64)| {
             if slope > MOVING {
                 rows.budget[rows.len] = GRID_MARGIN * jerk / slope;
                 rows.third[rows.len] = third / slope;
-                rows.cross[rows.len] = 3.0 * curvature / slope;
+                rows.cross[rows.len] = (cross.0 / slope, cross.1 / slope);
                 rows.len += 1;
             }
         };
-        push(l.tcp_jerk, e.tcp_speed, e.tcp_third, e.tcp_curvature);
+        let magnitude = |curvature: f64| (-3.0 * curvature, 3.0 * curvature);
+        push(
+            l.tcp_jerk,
+            e.tcp_speed,
+            e.tcp_third,
+            magnitude(e.tcp_curvature),
+        );
+        let around = k.saturating_sub(1)..=(k + 1).min(INTERVALS);
         for i in 0..AXES {
-            push(l.jerk[i], e.slope[i], e.third[i], e.curvature[i]);
+            let slopes = samples.slope[around.clone()].iter().map(|q| q[i]);
+            let signed = if slopes.clone().all(|q| q > MOVING) {
+                Some(1.0)
+            } else if slopes.clone().all(|q| q < -MOVING) {
+                Some(-1.0)
+            } else {
+                None
+            };
+            let cross = signed.map_or(magnitude(e.curvature[i]), |sign| {
+                samples.curvature[around.clone()]
+                    .iter()
+                    .map(|q| 3.0 * sign * q[i])
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+                        (lo.min(c), hi.max(c))
+                    })
+            });
+            push(l.jerk[i], e.slope[i], e.third[i], cross);
         }
         rows
     }
 
-    /// The largest `|s⃛|` at the largest speed `v` and path acceleration `acceleration`
-    /// around the point (negative where the budget is spent).
-    fn jerk(&self, v: f64, acceleration: f64) -> f64 {
-        let (v3, va) = (v * v * v, v * acceleration);
-        (0..self.len).fold(f64::INFINITY, |jerk, r| {
-            jerk.min(self.budget[r] - self.third[r] * v3 - self.cross[r] * va)
+    /// The rows of the same point on the reversed path: `σ` changes, `q''` does not.
+    fn reversed(mut self) -> Self {
+        for c in &mut self.cross[..self.len] {
+            *c = (-c.1, -c.0);
+        }
+        self
+    }
+
+    /// The largest rise and fall `(up, down)` of `s⃛` at speeds `ṡ` within `speeds` and path
+    /// accelerations `s̈` within `accelerations` (both `(lowest, highest)`) around the point
+    /// (negative where the budget is spent).
+    fn jerk(&self, speeds: (f64, f64), accelerations: (f64, f64)) -> (f64, f64) {
+        let v3 = speeds.1 * speeds.1 * speeds.1;
+        let corners = [
+            speeds.0 * accelerations.0,
+            speeds.0 * accelerations.1,
+            speeds.1 * accelerations.0,
+            speeds.1 * accelerations.1,
+        ];
+        let (va_lo, va_hi) = corners
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+                (lo.min(*c), hi.max(*c))
+            });
+        (0..self.len).fold((f64::INFINITY, f64::INFINITY), |(up, down), r| {
+            let (c_lo, c_hi) = self.cross[r];
+            let products = [c_lo * va_lo, c_lo * va_hi, c_hi * va_lo, c_hi * va_hi];
+            let most = products.iter().fold(f64::NEG_INFINITY, |m, p| m.max(*p));
+            let least = products.iter().fold(f64::INFINITY, |m, p| m.min(*p));
+            let left = self.budget[r] - self.third[r] * v3;
+            (up.min(left - most), down.min(left + least))
         })
     }
 }
@@ -414,7 +472,7 @@ impl<'a> Problem<'a> {
             braking: [f64::INFINITY; INTERVALS],
             slack: FEASIBILITY * bound.iter().copied().fold(0.0, f64::max),
             envelopes,
-            jerk_rows: envelopes.map(|e| JerkRows::new(&e, limits)),
+            jerk_rows: core::array::from_fn(|k| JerkRows::new(samples, k, &envelopes[k], limits)),
         };
         for k in 0..INTERVALS {
             let reach = interval_reach(samples, limits, &bound, k);
@@ -431,7 +489,7 @@ impl<'a> Problem<'a> {
         bound.reverse();
         let mut envelopes = self.envelopes;
         envelopes.reverse();
-        let mut jerk_rows = self.jerk_rows;
+        let mut jerk_rows = self.jerk_rows.map(JerkRows::reversed);
         jerk_rows.reverse();
         let (mut speed_up, mut braking) = (self.braking, self.speed_up);
         speed_up.reverse();
@@ -560,35 +618,38 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// The largest change of `s̈` around grid point `m` the jerk budget allows, for the
-    /// speeds² `x` around it (`before` at `m − 1`, `next` at `m + 1`, ignored at the ends)
-    /// and the path accelerations `before_u` of interval `m − 1` and `after_u` of `m`.
-    fn window(&self, m: usize, x: [f64; 3], before_u: f64, after_u: f64) -> f64 {
+    /// The largest rise and fall `(up, down)` of `s̈` around grid point `m` the jerk budget
+    /// allows, for the speeds² `x` around it (`before` at `m − 1`, `next` at `m + 1`, ignored
+    /// at the ends) and the path accelerations `before_u` of interval `m − 1` and `after_u`
+    /// of `m`.
+    fn window(&self, m: usize, x: [f64; 3], before_u: f64, after_u: f64) -> (f64, f64) {
         self.window_at_speeds(m, x.map(speed), before_u, after_u)
     }
 
     /// [`window`](Self::window) with the speeds `ṡ` instead of their squares: a ramp asks
     /// for many windows at the same two of them.
-    fn window_at_speeds(&self, m: usize, speeds: [f64; 3], before_u: f64, after_u: f64) -> f64 {
+    fn window_at_speeds(
+        &self,
+        m: usize,
+        speeds: [f64; 3],
+        before_u: f64,
+        after_u: f64,
+    ) -> (f64, f64) {
         let [before, at, next] = speeds;
         let interval = |a: f64, b: f64| 2.0 * STEP / (a + b);
         let mut span = 0.0;
+        let (mut slowest, mut fastest) = (at, at);
         if m > 0 {
             span += 0.5 * interval(before, at);
+            (slowest, fastest) = (slowest.min(before), fastest.max(before));
         }
         if m < INTERVALS {
             span += 0.5 * interval(at, next);
+            (slowest, fastest) = (slowest.min(next), fastest.max(next));
         }
-        let v = [
-            if m > 0 { before } else { 0.0 },
-            at,
-            if m < INTERVALS { next } else { 0.0 },
-        ]
-        .iter()
-        .fold(0.0f64, |a, b| a.max(*b));
-        let acceleration = before_u.abs().max(after_u.abs());
-        let jerk = self.jerk_rows[m].jerk(v, acceleration);
-        if jerk > 0.0 { jerk * span } else { 0.0 }
+        let accelerations = (before_u.min(after_u), before_u.max(after_u));
+        let (up, down) = self.jerk_rows[m].jerk((slowest, fastest), accelerations);
+        (up.max(0.0) * span, down.max(0.0) * span)
     }
 
     /// The largest `u` of stage `k` up to `highest` that the jerk window around `k` allows
@@ -617,7 +678,8 @@ impl<'a> Problem<'a> {
         let [before, at] = x.map(speed);
         let room = |u: f64| {
             let next = speed(x[1] + 2.0 * STEP * u);
-            self.window_at_speeds(k, [before, at, next], before_u, u) - sign * (u - before_u)
+            let (up, down) = self.window_at_speeds(k, [before, at, next], before_u, u);
+            (if sign > 0.0 { up } else { down }) - sign * (u - before_u)
         };
         let mut outer = (limit, room(limit));
         if outer.1 >= 0.0 {
@@ -728,8 +790,10 @@ impl<'a> Problem<'a> {
             let before_u = if m > 0 { u[m - 1] } else { 0.0 };
             let after_u = if m < INTERVALS { u[m] } else { 0.0 };
             let around = [x[m.saturating_sub(1)], x[m], x[(m + 1).min(INTERVALS)]];
-            let window = self.window(m, around, before_u, after_u);
-            (after_u - before_u).abs() > window * (1.0 + JERK_TOLERANCE) + self.slack
+            let (up, down) = self.window(m, around, before_u, after_u);
+            let change = after_u - before_u;
+            let window = if change > 0.0 { up } else { down };
+            change.abs() > window * (1.0 + JERK_TOLERANCE) + self.slack
         })
     }
 }

@@ -267,3 +267,42 @@ fn a_table_that_cannot_be_faster_is_not_made() {
     ));
     assert!(time(&straight(), &l, JerkBound::Joints, 2.0 * free.duration()).is_ok());
 }
+
+/// The curvature term counts with its sign: on a joint whose `q'` and `q''` are positive,
+/// braking (`s̈ < 0`) makes `3·q''·ṡ·s̈` negative, which leaves `s⃛` more room to rise (to
+/// ease off) than to fall (to brake harder). The reversed path sees the same braking as
+/// speeding up, with the same rooms; where `q'` changes sign around a point the term counts
+/// by its magnitude both ways.
+#[test]
+fn the_curvature_term_counts_with_its_sign() {
+    let limits = cobot();
+    let mut samples = PathSamples::zeros();
+    for k in 0..POINTS {
+        samples.slope[k][0] = 1.0;
+        samples.curvature[k][0] = 2.0;
+    }
+    let rows =
+        |samples: &PathSamples, k: usize| JerkRows::new(samples, k, &envelope(samples, k), &limits);
+    let budget = GRID_MARGIN * limits.jerk[0];
+    let term = 3.0 * 2.0 * 1.0 * 4.0;
+    let close = |(up, down): (f64, f64), expected: (f64, f64)| {
+        assert!(
+            (up - expected.0).abs() < 1e-9 && (down - expected.1).abs() < 1e-9,
+            "{up}, {down} against {expected:?}"
+        );
+    };
+    let braking = rows(&samples, 100);
+    close(
+        braking.jerk((1.0, 1.0), (-4.0, -4.0)),
+        (budget + term, budget - term),
+    );
+    close(
+        braking.reversed().jerk((1.0, 1.0), (4.0, 4.0)),
+        (budget + term, budget - term),
+    );
+    samples.slope[101][0] = -1.0;
+    close(
+        rows(&samples, 100).jerk((1.0, 1.0), (-4.0, -4.0)),
+        (budget - term, budget - term),
+    );
+}
