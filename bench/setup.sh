@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Creates the Python environment of `rc bench motion`'s reference planners (ruckig, toppra)
-# under target/bench-venv of the repository. Safe to run again: it only adds what is missing.
+# and of the lines' jerk-limited optimum (CasADi) under target/bench-venv of the repository.
+# Safe to run again: it only adds what is missing.
 set -euo pipefail
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -17,8 +18,10 @@ fi
 # RC_BENCH_UNPINNED=1.
 if [ "${RC_BENCH_UNPINNED:-0}" = "1" ]; then
     packages=(ruckig toppra)
+    optimum=(casadi)
 else
     packages=("ruckig==0.19.4" "toppra==0.6.10")
+    optimum=("casadi==3.7.2")
 fi
 if ! "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "${packages[@]}"; then
     echo "bench/setup.sh: pip could not install ${packages[*]} (is the package index reachable?);" \
@@ -26,4 +29,11 @@ if ! "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "${pa
     exit 1
 fi
 "$venv/bin/python" -c 'import importlib.metadata as m, ruckig, toppra; print("ruckig", m.version("ruckig"), "toppra", m.version("toppra"))'
+# The optimum is a further row: without CasADi the others still run.
+if "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "${optimum[@]}"; then
+    "$venv/bin/python" -c 'import importlib.metadata as m, casadi; print("casadi", m.version("casadi"))'
+else
+    echo "bench/setup.sh: pip could not install ${optimum[*]}; rc bench motion will report" \
+        "the jerk-limited optimum as failed (or skip it with --optimum-lines 0)" >&2
+fi
 echo "reference environment ready: $venv/bin/python"

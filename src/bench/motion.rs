@@ -9,8 +9,10 @@
 //! and jerk-limited), toppra for the lines (time-optimal on the same joint path, without a
 //! jerk limit), and for the lines also a jerk-aware lower bound (the larger of toppra's
 //! duration and the slowest single coordinate's time-optimal jerk-limited time, by ruckig).
-//! The references run in Python (bench/reference.py in a virtual environment made by
-//! bench/setup.sh); without that environment their rows are skipped.
+//! The lines are also measured against their jerk-limited optimum on the same joint path and
+//! limits, solved as a nonlinear program (bench/optimum.py, CasADi with IPOPT). The
+//! references run in Python (in a virtual environment made by bench/setup.sh); without that
+//! environment their rows are skipped.
 
 mod exchange;
 mod problems;
@@ -22,7 +24,7 @@ use std::path::PathBuf;
 use clap::Args;
 use shared_types::config::Config;
 
-use exchange::{Reference, ReferenceError};
+use exchange::{Optimum, Reference, ReferenceError};
 use problems::{MAX_TURN_RAD, Ours, Problems, Robot};
 use report::{OptimalityRow, TimingRow};
 use timing::{CallTimes, Timings};
@@ -43,9 +45,13 @@ pub struct Options {
         default_value = "target/bench-venv/bin/python"
     )]
     pub python: PathBuf,
-    /// Directory for the problem set, the reference script and its result.
+    /// Directory for the problem set, the reference scripts and their results.
     #[arg(long, value_name = "DIR", default_value = "target/bench-motion")]
     pub out: PathBuf,
+    /// Linear moves (the first ones) timed by the jerk-limited optimum, about 2 s each; 0
+    /// skips it.
+    #[arg(long, value_name = "N", default_value_t = 100)]
+    pub optimum_lines: u32,
 }
 
 /// Everything `rc bench motion` found.
@@ -54,6 +60,8 @@ struct MotionResults {
     problems: Problems,
     timings: Timings,
     reference: Result<Reference, ReferenceError>,
+    /// `None` where it was not asked for.
+    optimum: Option<Result<Optimum, ReferenceError>>,
 }
 
 /// Runs `rc bench motion` on the robot of `config`; `Ok(false)` if the reference planners
@@ -61,11 +69,11 @@ struct MotionResults {
 pub fn run(config: &Config, options: &Options) -> anyhow::Result<bool> {
     let results = measure(config, options, true)?;
     print!("{}", render(&results, options));
-    let failed = matches!(
-        &results.reference,
-        Err(e) if !matches!(e, ReferenceError::NoEnvironment(_))
-    );
-    Ok(!failed)
+    let failed = |r: Option<&ReferenceError>| {
+        r.is_some_and(|e| !matches!(e, ReferenceError::NoEnvironment(_)))
+    };
+    let optimum_failed = results.optimum.as_ref().and_then(|o| o.as_ref().err());
+    Ok(!failed(results.reference.as_ref().err()) && !failed(optimum_failed))
 }
 
 /// Draws and plans the problems, times the planner and, with `with_reference`, asks the
@@ -100,11 +108,25 @@ fn measure(
     } else {
         Err(ReferenceError::NoEnvironment(options.python.clone()))
     };
+    let optimum_lines = (options.optimum_lines as usize).min(problems.linear.len());
+    let optimum = (with_reference && optimum_lines > 0).then(|| {
+        super::progress(&format!(
+            "jerk-limited optimum of {optimum_lines} linear moves (about 2 s each)"
+        ));
+        exchange::run_optimum(
+            &options.python,
+            &options.out,
+            &robot,
+            &problems,
+            optimum_lines,
+        )
+    });
     Ok(MotionResults {
         robot,
         problems,
         timings,
         reference,
+        optimum,
     })
 }
 
@@ -215,6 +237,18 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
             "MoveLinear / jerk-aware lower bound, without reserve".into(),
             &|r| of(&no_reserve(&linear), &r.linear_bound),
         ),
+        OptimalityRow {
+            label: format!("MoveLinear / jerk-limited optimum, as planned (reserve {reserve})"),
+            ratios: match &results.optimum {
+                None => Err("not asked for (--optimum-lines 0)".into()),
+                Some(Ok(o)) => of(&linear_as_planned(p), &o.linear)
+                    .ok_or_else(|| "the optimum converged on no line".to_string()),
+                Some(Err(ReferenceError::NoEnvironment(_))) => {
+                    Err("no reference environment".into())
+                }
+                Some(Err(_)) => Err("bench/optimum.py failed (see below)".into()),
+            },
+        },
         row("cross-check: conic TOPP / toppra, the same".into(), &|r| {
             of(&conic(p), &r.linear)
         }),
@@ -344,6 +378,14 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
          not an optimum (a joint that moves back and forth travels more than its net \
          displacement, and the coordinates are not held to one path)"
             .to_string(),
+        "jerk-limited optimum: the shortest timing of the same joint path (our samples, \
+         quintic spline) under the same joint and TCP v/a/j limits as planned (acceleration \
+         held back by the reserve, as ours), by direct collocation (150 time steps of constant \
+         path jerk, the limits at every step boundary; CasADi with IPOPT, a local optimum of \
+         a nonconvex program started from ours): the 2 % target's reference for the lines; \
+         as the limits hold at the step boundaries only it may be a little shorter than a \
+         timing that keeps them everywhere"
+            .to_string(),
         "scale: ruckig's jerk-limited optimum over toppra's v/a-only optimum of the same \
          joint moves (straight joint lines): what the jerk limit alone costs on such moves, \
          so the part of the MoveLinear ratio beyond it comes from our planner; constant \
@@ -385,6 +427,38 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
         )),
         Err(e) => notes.push(format!("optimality skipped: {e}")),
     }
+    match &results.optimum {
+        Some(Ok(o)) => notes.extend(optimum_notes(p, o, options.optimum_lines as usize)),
+        Some(Err(ReferenceError::NoEnvironment(_))) | None => {}
+        Some(Err(e)) => notes.push(format!(
+            "jerk-limited optimum skipped: {e}; `bash bench/setup.sh` installs CasADi"
+        )),
+    }
+    notes
+}
+
+/// How the optimum of the first `asked` lines was had and the slowest line against it.
+fn optimum_notes(p: &Problems, o: &Optimum, asked: usize) -> Vec<String> {
+    let asked = asked.min(p.linear.len());
+    let solved = o.linear.iter().filter(|x| x.is_finite()).count();
+    let mut notes = vec![format!(
+        "optimum: CasADi {}, {solved} of the first {asked} lines converged ({:.0} s)",
+        o.casadi_version, o.seconds
+    )];
+    let as_planned = linear_as_planned(p);
+    if let Some(stats) = report::RatioStats::of(&as_planned, &o.linear)
+        && let Some(case) = p.linear.get(stats.worst)
+    {
+        notes.push(format!(
+            "slowest MoveLinear against the optimum: [[linear]] {} of {}, {:.1} mm, ours \
+             {:.3} s, optimum {:.3} s",
+            stats.worst,
+            exchange::PROBLEMS_FILE,
+            case.length_m * 1e3,
+            as_planned[stats.worst],
+            o.linear[stats.worst]
+        ));
+    }
     notes
 }
 
@@ -400,6 +474,7 @@ mod tests {
             seed: 3,
             python: PathBuf::from("/nonexistent/python"),
             out: std::env::temp_dir().join("rc-bench-motion-smoke"),
+            optimum_lines: 1,
         };
         let results = measure(&config, &options, false).unwrap();
         let p = &results.problems;

@@ -1,6 +1,7 @@
-//! The exchange with the Python reference planners (bench/reference.py): the problem set and
-//! the limits out, one reference duration per problem back, both as TOML (the `toml` crate
-//! here, the standard library's `tomllib` there). The file layout is in bench/README.md.
+//! The exchange with the Python reference planners (bench/reference.py) and the jerk-limited
+//! optimum of the lines (bench/optimum.py): the problem set and the limits out, one reference
+//! duration per problem back, both as TOML (the `toml` crate here, the standard library's
+//! `tomllib` there). The file layout is in bench/README.md.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -9,12 +10,28 @@ use toml::{Table, Value};
 
 use super::problems::{Problems, Robot};
 
-/// The reference script, embedded so that the binary runs it from any directory.
-pub const SCRIPT: &str = include_str!("../../../bench/reference.py");
-/// File names in the output directory.
+/// A script of the reference environment, embedded so that the binary runs it from any
+/// directory, with the names of it and of its result in the output directory.
+pub struct Script {
+    pub file: &'static str,
+    pub text: &'static str,
+    pub result: &'static str,
+}
+
+/// The reference planners: ruckig, toppra and the jerk-aware bound.
+pub const REFERENCE: Script = Script {
+    file: "reference.py",
+    text: include_str!("../../../bench/reference.py"),
+    result: "reference.toml",
+};
+/// The jerk-limited optimum of the lines (CasADi, IPOPT).
+pub const OPTIMUM: Script = Script {
+    file: "optimum.py",
+    text: include_str!("../../../bench/optimum.py"),
+    result: "optimum.toml",
+};
+/// The problem file in the output directory.
 pub const PROBLEMS_FILE: &str = "problems.toml";
-pub const SCRIPT_FILE: &str = "reference.py";
-pub const REFERENCE_FILE: &str = "reference.toml";
 
 /// Why the reference durations could not be had.
 #[derive(Debug, thiserror::Error)]
@@ -31,15 +48,22 @@ pub enum ReferenceError {
         python: PathBuf,
         source: std::io::Error,
     },
-    #[error("the reference script failed ({status}): {stderr}")]
-    Script { status: String, stderr: String },
+    #[error("{script} failed ({status}): {stderr}")]
+    Script {
+        script: &'static str,
+        status: String,
+        stderr: String,
+    },
     #[error("cannot read {path}: {source}")]
     Read {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("the reference result is not valid: {0}")]
-    Invalid(String),
+    #[error("the result of {script} is not valid: {reason}")]
+    Invalid {
+        script: &'static str,
+        reason: String,
+    },
 }
 
 /// What the reference planners answered.
@@ -61,6 +85,16 @@ pub struct Reference {
     /// and the slowest coordinate's time-optimal jerk-limited time alone (each joint over its
     /// net displacement, the TCP over the line's length); NaN where ruckig or toppra failed.
     pub linear_bound: Vec<f64>,
+}
+
+/// The jerk-limited optimum of the lines.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Optimum {
+    pub casadi_version: String,
+    /// Wall time of all solves, s.
+    pub seconds: f64,
+    /// One duration (s) per linear move, NaN where it was not asked for or did not converge.
+    pub linear: Vec<f64>,
 }
 
 fn floats(values: impl IntoIterator<Item = f64>) -> Value {
@@ -125,22 +159,35 @@ pub fn problems_toml(robot: &Robot, problems: &Problems) -> String {
     root.to_string()
 }
 
-/// Parses the reference result, which must hold `joints` and `lines` durations.
-pub fn parse_reference(text: &str, joints: usize, lines: usize) -> Result<Reference, String> {
-    let root: Table = text.parse().map_err(|e: toml::de::Error| e.to_string())?;
-    let string = |key: &str| {
-        root.get(key)
+/// The string, number and duration arrays of a result file.
+struct ResultFile(Table);
+
+impl ResultFile {
+    fn parse(text: &str) -> Result<Self, String> {
+        text.parse()
+            .map(Self)
+            .map_err(|e: toml::de::Error| e.to_string())
+    }
+
+    fn string(&self, key: &str) -> Result<String, String> {
+        self.0
+            .get(key)
             .and_then(Value::as_str)
             .map(str::to_string)
             .ok_or_else(|| format!("no string {key}"))
-    };
-    let float = |key: &str| {
-        root.get(key)
+    }
+
+    fn float(&self, key: &str) -> Result<f64, String> {
+        self.0
+            .get(key)
             .and_then(Value::as_float)
             .ok_or_else(|| format!("no number {key}"))
-    };
-    let durations = |key: &str, expected: usize| -> Result<Vec<f64>, String> {
-        let values = root
+    }
+
+    /// The array `key` of exactly `expected` numbers.
+    fn durations(&self, key: &str, expected: usize) -> Result<Vec<f64>, String> {
+        let values = self
+            .0
             .get(key)
             .and_then(Value::as_array)
             .ok_or_else(|| format!("no array {key}"))?
@@ -157,27 +204,76 @@ pub fn parse_reference(text: &str, joints: usize, lines: usize) -> Result<Refere
             ));
         }
         Ok(values)
-    };
+    }
+}
+
+/// Parses the reference result, which must hold `joints` and `lines` durations.
+pub fn parse_reference(text: &str, joints: usize, lines: usize) -> Result<Reference, String> {
+    let file = ResultFile::parse(text)?;
     Ok(Reference {
-        ruckig_version: string("ruckig")?,
-        toppra_version: string("toppra")?,
-        ruckig_s: float("ruckig_seconds")?,
-        toppra_s: float("toppra_seconds")?,
-        joint: durations("joint", joints)?,
-        linear: durations("linear", lines)?,
-        joint_toppra: durations("joint_toppra", joints)?,
-        linear_bound: durations("linear_bound", lines)?,
+        ruckig_version: file.string("ruckig")?,
+        toppra_version: file.string("toppra")?,
+        ruckig_s: file.float("ruckig_seconds")?,
+        toppra_s: file.float("toppra_seconds")?,
+        joint: file.durations("joint", joints)?,
+        linear: file.durations("linear", lines)?,
+        joint_toppra: file.durations("joint_toppra", joints)?,
+        linear_bound: file.durations("linear_bound", lines)?,
     })
 }
 
-/// Writes the problem file and the script into `dir`, runs the script with `python` and
-/// reads its answer.
+/// Parses the optimum's result, which must hold `lines` durations.
+pub fn parse_optimum(text: &str, lines: usize) -> Result<Optimum, String> {
+    let file = ResultFile::parse(text)?;
+    Ok(Optimum {
+        casadi_version: file.string("casadi")?,
+        seconds: file.float("optimum_seconds")?,
+        linear: file.durations("linear_optimum", lines)?,
+    })
+}
+
+/// Writes the problem file and the reference script into `dir`, runs the script with
+/// `python` and reads its answer.
 pub fn run_reference(
     python: &Path,
     dir: &Path,
     robot: &Robot,
     problems: &Problems,
 ) -> Result<Reference, ReferenceError> {
+    let text = run_script(&REFERENCE, python, dir, robot, problems, &[])?;
+    parse_reference(&text, problems.joint.len(), problems.linear.len()).map_err(|reason| {
+        ReferenceError::Invalid {
+            script: REFERENCE.file,
+            reason,
+        }
+    })
+}
+
+/// The jerk-limited optimum of the first `lines` linear moves, as [`run_reference`].
+pub fn run_optimum(
+    python: &Path,
+    dir: &Path,
+    robot: &Robot,
+    problems: &Problems,
+    lines: usize,
+) -> Result<Optimum, ReferenceError> {
+    let text = run_script(&OPTIMUM, python, dir, robot, problems, &[lines.to_string()])?;
+    parse_optimum(&text, problems.linear.len()).map_err(|reason| ReferenceError::Invalid {
+        script: OPTIMUM.file,
+        reason,
+    })
+}
+
+/// Writes the problem file and `script` into `dir`, runs `python SCRIPT PROBLEMS RESULT
+/// ARGS...` and returns the text of its result.
+fn run_script(
+    script: &Script,
+    python: &Path,
+    dir: &Path,
+    robot: &Robot,
+    problems: &Problems,
+    args: &[String],
+) -> Result<String, ReferenceError> {
     if !python.exists() {
         return Err(ReferenceError::NoEnvironment(python.to_path_buf()));
     }
@@ -188,14 +284,15 @@ pub fn run_reference(
             .map_err(|source| ReferenceError::Write { path, source })
     };
     write(PROBLEMS_FILE, &problems_toml(robot, problems))?;
-    write(SCRIPT_FILE, SCRIPT)?;
-    let result = dir.join(REFERENCE_FILE);
+    write(script.file, script.text)?;
+    let result = dir.join(script.result);
     // A result of an earlier run must not pass for this one's.
     let _ = std::fs::remove_file(&result);
     let output = Command::new(python)
-        .arg(dir.join(SCRIPT_FILE))
+        .arg(dir.join(script.file))
         .arg(dir.join(PROBLEMS_FILE))
         .arg(&result)
+        .args(args)
         .output()
         .map_err(|source| ReferenceError::Spawn {
             python: python.to_path_buf(),
@@ -206,16 +303,15 @@ pub fn run_reference(
         // The last lines carry the exception.
         let tail: Vec<&str> = stderr.lines().rev().take(3).collect();
         return Err(ReferenceError::Script {
+            script: script.file,
             status: output.status.to_string(),
             stderr: tail.into_iter().rev().collect::<Vec<_>>().join(" | "),
         });
     }
-    let text = std::fs::read_to_string(&result).map_err(|source| ReferenceError::Read {
+    std::fs::read_to_string(&result).map_err(|source| ReferenceError::Read {
         path: result.clone(),
         source,
-    })?;
-    parse_reference(&text, problems.joint.len(), problems.linear.len())
-        .map_err(ReferenceError::Invalid)
+    })
 }
 
 #[cfg(test)]
@@ -288,11 +384,29 @@ mod tests {
     }
 
     #[test]
+    fn the_optimum_is_read_for_every_line_and_checked_against_their_number() {
+        let text = "casadi = \"3.7.2\"\noptimum_seconds = 4.5\nlinear_optimum = [0.5, nan]\n";
+        let o = parse_optimum(text, 2).unwrap();
+        assert_eq!((o.casadi_version.as_str(), o.seconds), ("3.7.2", 4.5));
+        assert_eq!(o.linear[0], 0.5);
+        assert!(o.linear[1].is_nan());
+        let e = parse_optimum(text, 3).unwrap_err();
+        assert!(
+            e.contains("linear_optimum: 2 durations for 3 problems"),
+            "{e}"
+        );
+        let e = parse_optimum(&text.replace("casadi", "ipopt"), 2).unwrap_err();
+        assert!(e.contains("no string casadi"), "{e}");
+    }
+
+    #[test]
     fn a_missing_environment_is_reported_before_anything_is_written() {
         let robot = Robot::from_config(&Config::load(None).unwrap()).unwrap();
         let problems = Problems::generate(&robot, 5, 1, 1).unwrap();
         let dir = std::env::temp_dir().join(format!("rc-motion-test-{}", std::process::id()));
         let e = run_reference(Path::new("/nonexistent/python"), &dir, &robot, &problems);
+        assert!(matches!(e, Err(ReferenceError::NoEnvironment(_))), "{e:?}");
+        let e = run_optimum(Path::new("/nonexistent/python"), &dir, &robot, &problems, 1);
         assert!(matches!(e, Err(ReferenceError::NoEnvironment(_))), "{e:?}");
         assert!(!dir.exists());
     }
