@@ -30,11 +30,14 @@
 //! `(j_i − |q'''_i|·ṡ³ ∓ 3·σ_i·q''_i·ṡ·s̈)/|q'_i|`, `σ_i` the sign of `q'_i`, over the
 //! ranges of `ṡ`, `s̈` and `q''` around `m` and the largest `|q'''|`, `|q'|` there (where
 //! `q'_i` changes sign around `m`, or for the TCP, `3·|q''|·ṡ·|s̈|` either way; see
-//! [`JerkRows`]), so the change of `u` at `m` has a window. To keep the
-//! budget positive the speed is capped where `|q'''|·ṡ³` would take more than the share
-//! [`ToppLimits::third_share`] of it and `|s̈|` is held to what is left for `3·|q''|·ṡ·|s̈|` at the stage's speed bound (the
-//! largest speed around the stage, so at the speed the stage ends up with the term takes
-//! less, and the window for `s⃛` keeps the rest).
+//! [`JerkRows`]), so the change of `u` at `m` has a window. To keep the budget positive the
+//! speed is capped where `|q'''|·ṡ³` would take more than the share
+//! [`ToppLimits::third_share`] of it and `|s̈|` is held to what is left for
+//! `3·|q''|·ṡ·|s̈|` at the stage's speed bound (the largest speed around the stage, so at
+//! the speed the stage ends up with the term takes less, and the window for `s⃛` keeps the
+//! rest). Each pass lowers that bound to the profile of the pass before (the time-optimal
+//! one without the jerk window first, the pointwise fastest), and the hold on `|s̈|` with
+//! it: a pass keeps under the profile it runs under.
 //!
 //! The jerk-limited forward pass takes at every stage the largest `u` in that window whose
 //! fastest way down (`u` lowered as fast as the window allows, down to the largest braking
@@ -90,7 +93,7 @@ pub fn time(
     jerk: JerkBound,
     longest: f64,
 ) -> Result<(TableProfile, usize), ToppError> {
-    let forward = Problem::new(samples, limits, jerk)?;
+    let mut forward = Problem::new(samples, limits, jerk)?;
     let mut sets = Sets::new();
     let mut x = [0.0; POINTS];
     forward.controllable(&mut sets)?;
@@ -108,26 +111,23 @@ pub fn time(
         Ok(())
     };
     may_be_faster(&x)?;
-    // Forward under the controllable sets alone: right but for the end of the path.
+    // Forward under the controllable sets alone (and that profile, the pointwise fastest):
+    // right but for the end of the path.
+    forward.lower_bound(&x, INTERVALS);
+    forward.controllable(&mut sets)?;
     let mut u = [0.0; INTERVALS];
     forward.jerk_greedy(&sets, &mut x, &mut u);
     may_be_faster(&x)?;
     // From the end under that profile (up to where it is of use): right but for the start,
     // and it meets the forward profile where that one is jerk-limited already.
-    let mut reversed = forward.reversed();
-    let trusted = forward.trusted_until(&x);
-    for (k, bound) in reversed.bound.iter_mut().enumerate() {
-        if INTERVALS - k <= trusted {
-            *bound = bound.min(x[INTERVALS - k]);
-        }
-    }
+    let mut problem = forward;
+    problem.lower_bound(&x, forward.trusted_until(&x));
+    let reversed = problem.reversed();
     reversed.controllable(&mut sets)?;
     reversed.jerk_greedy(&sets, &mut x, &mut u);
     may_be_faster(&x)?;
-    let mut problem = forward;
-    for (k, bound) in problem.bound.iter_mut().enumerate() {
-        *bound = bound.min(x[INTERVALS - k]);
-    }
+    x.reverse();
+    problem.lower_bound(&x, INTERVALS);
     for pass in 1..=MAX_REPAIRS + 1 {
         problem.controllable(&mut sets)?;
         problem.jerk_greedy(&sets, &mut x, &mut u);
@@ -138,6 +138,7 @@ pub fn time(
         for (bound, x) in problem.bound[before.clone()].iter_mut().zip(&x[before]) {
             *bound = bound.min(REPAIR_FACTOR * x);
         }
+        problem.rates();
     }
     Err(ToppError::JerkUnsettled(MAX_REPAIRS + 4))
 }
@@ -324,6 +325,9 @@ struct Problem<'a> {
     reversed: bool,
     /// Largest `x` at every grid point.
     bound: [f64; POINTS],
+    /// The tangential reach of every interval at the speed bound of the problem as made
+    /// (what the joints allow `|s̈|` at most, scaled by the rates' shares).
+    reach: [f64; INTERVALS],
     /// Largest `s̈` and `−s̈` in every interval.
     speed_up: [f64; INTERVALS],
     braking: [f64; INTERVALS],
@@ -468,19 +472,40 @@ impl<'a> Problem<'a> {
             jerk,
             reversed: false,
             bound,
+            reach: core::array::from_fn(|k| interval_reach(samples, limits, &bound, k)),
             speed_up: [f64::INFINITY; INTERVALS],
             braking: [f64::INFINITY; INTERVALS],
             slack: FEASIBILITY * bound.iter().copied().fold(0.0, f64::max),
             envelopes,
             jerk_rows: core::array::from_fn(|k| JerkRows::new(samples, k, &envelopes[k], limits)),
         };
-        for k in 0..INTERVALS {
-            let reach = interval_reach(samples, limits, &bound, k);
-            let cross = problem.cross_bound(k).min(problem.cross_bound(k + 1));
-            problem.speed_up[k] = (limits.speed_up * reach).min(cross);
-            problem.braking[k] = (limits.braking * reach).min(cross);
-        }
+        problem.rates();
         Ok(problem)
+    }
+
+    /// The largest `s̈` and `−s̈` of every interval: the rates' shares of the tangential
+    /// reach, and with the jerk bound what the curvature term leaves at the speed bound
+    /// ([`cross_bound`](Self::cross_bound)). Forward problems only (the reversed one takes
+    /// them reversed).
+    fn rates(&mut self) {
+        debug_assert!(!self.reversed);
+        for k in 0..INTERVALS {
+            let cross = self.cross_bound(k).min(self.cross_bound(k + 1));
+            self.speed_up[k] = (self.limits.speed_up * self.reach[k]).min(cross);
+            self.braking[k] = (self.limits.braking * self.reach[k]).min(cross);
+        }
+    }
+
+    /// Lowers the speed bound to the speeds² `x` up to grid point `until`, and the rates
+    /// with it: a pass under the profile of the one before keeps its speeds, so the
+    /// curvature term's share of the jerk budget is found at those instead of the speed
+    /// limits (where a profile brakes well below them, to the end of the path, that held the
+    /// braking to a fraction of what the jerk budget allows).
+    fn lower_bound(&mut self, x: &[f64; POINTS], until: usize) {
+        for (bound, x) in self.bound.iter_mut().zip(x).take(until + 1) {
+            *bound = bound.min(*x);
+        }
+        self.rates();
     }
 
     /// The same problem on the reversed path.

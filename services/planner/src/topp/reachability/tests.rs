@@ -306,3 +306,30 @@ fn the_curvature_term_counts_with_its_sign() {
         (budget - term, budget - term),
     );
 }
+
+/// A pass under a lower speed bound may brake and speed up harder where the curvature term
+/// took the jerk budget at the speed limits: the rates follow the bound down, never up.
+#[test]
+fn the_rates_follow_a_lowered_speed_bound() {
+    let limits = cobot();
+    let mut samples = PathSamples::zeros();
+    for k in 0..POINTS {
+        samples.slope[k] = [1.0, 0.5, -0.4, 0.3, 0.2, 0.1];
+        samples.curvature[k] = [3.0, -2.0, 1.0, 0.5, 0.0, 0.0];
+        samples.third[k] = [4.0, 2.0, 1.0, 0.0, 0.0, 0.0];
+        samples.tcp_speed[k] = 0.3;
+    }
+    let mut problem = Problem::new(&samples, &limits, JerkBound::Joints).unwrap();
+    let (speed_up, braking) = (problem.speed_up, problem.braking);
+    let lower = problem.bound.map(|b| 0.25 * b);
+    problem.lower_bound(&lower, INTERVALS / 2);
+    for k in 0..INTERVALS {
+        assert!(problem.speed_up[k] >= speed_up[k] && problem.braking[k] >= braking[k]);
+    }
+    assert!(
+        problem.braking[10] > 1.5 * braking[10],
+        "{}",
+        problem.braking[10]
+    );
+    assert_eq!(problem.braking[200], braking[200]);
+}
