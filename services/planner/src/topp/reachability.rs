@@ -27,10 +27,10 @@
 //! intervals, so around grid point `m` the path jerk is `(u_m − u_{m−1})` over the time
 //! between those middles (`u_{−1} = u_N = 0`). With `q⃛ = q'''·ṡ³ + q''·ṡ·(2·s̈ + s̈_blend) +
 //! q'·s⃛` the joints' jerk budget leaves `s⃛` a window `[−down_m, up_m]`: per joint
-//! `(j_i − |q'''_i|·ṡ³ ∓ 3·σ_i·q''_i·ṡ·s̈)/|q'_i|`, `σ_i` the sign of `q'_i`, over the
-//! ranges of `ṡ`, `s̈` and `q''` around `m` and the largest `|q'''|`, `|q'|` there (where
-//! `q'_i` changes sign around `m`, or for the TCP, `3·|q''|·ṡ·|s̈|` either way; see
-//! [`JerkRows`]), so the change of `u` at `m` has a window. To keep the budget positive the
+//! `(j_i ∓ σ_i·q'''_i·ṡ³ ∓ 3·σ_i·q''_i·ṡ·s̈)/|q'_i|`, `σ_i` the sign of `q'_i`, over the
+//! ranges of `ṡ`, `s̈`, `q''` and `q'''` around `m` and the largest `|q'|` there (where
+//! `q'_i` changes sign around `m`, or for the TCP, by the terms' magnitudes either way; see
+//! `JerkRows`), so the change of `u` at `m` has a window. To keep the budget positive the
 //! speed is capped where `|q'''|·ṡ³` would take more than the share
 //! [`ToppLimits::third_share`] of it and `|s̈|` is held to what is left for
 //! `3·|q''|·ṡ·|s̈|` at the stage's speed bound (the largest speed around the stage, so at
@@ -351,16 +351,19 @@ struct Point {
 /// limit's terms over its largest `|q'|` (or `|p'|`) around the point once, as the
 /// jerk-limited passes ask for a point's window many times at different speeds: with `σ`
 /// the sign of `q'`, `|q⃛| ≤ j` is `|σ·q'''/|q'|·ṡ³ + 3·σ·q''/|q'|·ṡ·s̈ + s⃛| ≤ j/|q'|`, so
-/// `s⃛` may rise by `budget − third·ṡ³ − max(cross·ṡ·s̈)` and fall by
-/// `budget − third·ṡ³ + min(cross·ṡ·s̈)`, `cross` the range of `3·σ·q''/|q'|` around the
-/// point. The curvature term counts with its sign where `q'` keeps its sign around the
-/// point (braking where `q''` and `q'` have the same sign, it leaves more room to ease off
-/// than to brake harder); elsewhere, for `|q'''|` and for the TCP (whose derivatives are
-/// norms) by its magnitude either way.
+/// `s⃛` may rise by `budget − max(third·ṡ³) − max(cross·ṡ·s̈)` and fall by
+/// `budget + min(third·ṡ³) + min(cross·ṡ·s̈)`, `third` and `cross` the ranges of
+/// `σ·q'''/|q'|` and `3·σ·q''/|q'|` around the point. Both terms count with their sign where
+/// `q'` keeps its sign around the point (braking where `q''` and `q'` have the same sign,
+/// there is more room to ease off than to brake harder): `q''` as sampled, `q'''` as the
+/// differences of `q''` over the intervals around, widened by what the sampled `|q'''|`
+/// (which may come from finer steps) exceeds them by. Elsewhere, and for the TCP (whose
+/// derivatives are norms), by their magnitudes either way.
 #[derive(Clone, Copy)]
 struct JerkRows {
     budget: [f64; AXES + 1],
-    third: [f64; AXES + 1],
+    /// `(lowest, highest)` of `σ·q'''/|q'|` around the point.
+    third: [(f64, f64); AXES + 1],
     /// `(lowest, highest)` of `3·σ·q''/|q'|` around the point.
     cross: [(f64, f64); AXES + 1],
     len: usize,
@@ -370,14 +373,14 @@ impl JerkRows {
     fn new(samples: &PathSamples, k: usize, e: &Envelope, l: &ToppLimits) -> Self {
         let mut rows = Self {
             budget: [0.0; AXES + 1],
-            third: [0.0; AXES + 1],
+            third: [(0.0, 0.0); AXES + 1],
             cross: [(0.0, 0.0); AXES + 1],
             len: 0,
         };
-        let mut push = |jerk: f64, slope: f64, third: f64, cross: (f64, f64)| {
+        let mut push = |jerk: f64, slope: f64, third: (f64, f64), cross: (f64, f64)| {
             if slope > MOVING {
                 rows.budget[rows.len] = GRID_MARGIN * jerk / slope;
-                rows.third[rows.len] = third / slope;
+                rows.third[rows.len] = (third.0 / slope, third.1 / slope);
                 rows.cross[rows.len] = (cross.0 / slope, cross.1 / slope);
                 rows.len += 1;
             }
@@ -386,9 +389,10 @@ impl JerkRows {
         push(
             l.tcp_jerk,
             e.tcp_speed,
-            e.tcp_third,
+            (-e.tcp_third, e.tcp_third),
             magnitude(e.tcp_curvature),
         );
+        let intervals = k.saturating_sub(2)..=(k + 1).min(INTERVALS - 1);
         let around = k.saturating_sub(1)..=(k + 1).min(INTERVALS);
         for i in 0..AXES {
             let slopes = samples.slope[around.clone()].iter().map(|q| q[i]);
@@ -407,7 +411,19 @@ impl JerkRows {
                         (lo.min(c), hi.max(c))
                     })
             });
-            push(l.jerk[i], e.slope[i], e.third[i], cross);
+            let third = signed.map_or((-e.third[i], e.third[i]), |sign| {
+                let (lo, hi, most) = intervals.clone().fold(
+                    (f64::INFINITY, f64::NEG_INFINITY, 0.0f64),
+                    |(lo, hi, most), j| {
+                        let d =
+                            sign * (samples.curvature[j + 1][i] - samples.curvature[j][i]) / STEP;
+                        (lo.min(d), hi.max(d), most.max(d.abs()))
+                    },
+                );
+                let widen = (e.third[i] - most).max(0.0);
+                ((lo - widen).max(-e.third[i]), (hi + widen).min(e.third[i]))
+            });
+            push(l.jerk[i], e.slope[i], third, cross);
         }
         rows
     }
@@ -424,7 +440,7 @@ impl JerkRows {
     /// accelerations `s̈` within `accelerations` (both `(lowest, highest)`) around the point
     /// (negative where the budget is spent).
     fn jerk(&self, speeds: (f64, f64), accelerations: (f64, f64)) -> (f64, f64) {
-        let v3 = speeds.1 * speeds.1 * speeds.1;
+        let (v3_lo, v3_hi) = (speeds.0.powi(3), speeds.1.powi(3));
         let corners = [
             speeds.0 * accelerations.0,
             speeds.0 * accelerations.1,
@@ -441,8 +457,14 @@ impl JerkRows {
             let products = [c_lo * va_lo, c_lo * va_hi, c_hi * va_lo, c_hi * va_hi];
             let most = products.iter().fold(f64::NEG_INFINITY, |m, p| m.max(*p));
             let least = products.iter().fold(f64::INFINITY, |m, p| m.min(*p));
-            let left = self.budget[r] - self.third[r] * v3;
-            (up.min(left - most), down.min(left + least))
+            let (t_lo, t_hi) = self.third[r];
+            let third_most = (t_hi * v3_hi).max(t_hi * v3_lo);
+            let third_least = (t_lo * v3_hi).min(t_lo * v3_lo);
+            let budget = self.budget[r];
+            (
+                up.min(budget - third_most - most),
+                down.min(budget + third_least + least),
+            )
         })
     }
 }

@@ -333,3 +333,42 @@ fn the_rates_follow_a_lowered_speed_bound() {
     );
     assert_eq!(problem.braking[200], braking[200]);
 }
+
+/// The third-derivative term counts with its sign as the curvature term does: where `q''`
+/// grows along a joint moving forward, `q'''·ṡ³` takes from the room to speed up and adds
+/// to the room to slow down, the same on the reversed path; by its magnitude both ways where
+/// `q'` changes sign around the point.
+#[test]
+fn the_third_derivative_term_counts_with_its_sign() {
+    let limits = cobot();
+    let mut samples = PathSamples::zeros();
+    let third = 2.56;
+    for k in 0..POINTS {
+        samples.slope[k][0] = 1.0;
+        samples.curvature[k][0] = third * k as f64 / INTERVALS as f64;
+        samples.third[k][0] = third;
+    }
+    let rows =
+        |samples: &PathSamples| JerkRows::new(samples, 100, &envelope(samples, 100), &limits);
+    let budget = GRID_MARGIN * limits.jerk[0];
+    let close = |(up, down): (f64, f64), expected: (f64, f64)| {
+        assert!(
+            (up - expected.0).abs() < 1e-9 && (down - expected.1).abs() < 1e-9,
+            "{up}, {down} against {expected:?}"
+        );
+    };
+    let forward = rows(&samples);
+    close(
+        forward.jerk((1.0, 1.0), (0.0, 0.0)),
+        (budget - third, budget + third),
+    );
+    close(
+        forward.reversed().jerk((1.0, 1.0), (0.0, 0.0)),
+        (budget - third, budget + third),
+    );
+    samples.slope[99][0] = -1.0;
+    close(
+        rows(&samples).jerk((1.0, 1.0), (0.0, 0.0)),
+        (budget - third, budget - third),
+    );
+}
