@@ -140,28 +140,36 @@ def optimum(path, length_m, joint_limits, tcp_limits, guess_s):
     return math.nan
 
 
-def main(argv):
-    if len(argv) != 4:
-        print(__doc__, file=sys.stderr)
-        return 2
-    with open(argv[1], "rb") as f:
-        problems = tomllib.load(f)
-    count = int(argv[3])
+def limits_as_planned(problems):
+    """The joint and TCP limits of the problem file with the accelerations held back by the
+    override reserve, as our planner plans a line."""
     kept = 1.0 - problems["override_reserve"]
     joint_limits = dict(problems["joint_limits"])
     joint_limits["acceleration"] = [kept * a for a in joint_limits["acceleration"]]
     tcp_limits = dict(problems["tcp_limits"])
     tcp_limits["acceleration"] *= kept
-    lines = problems.get("linear", [])
+    return joint_limits, tcp_limits
+
+
+def main(argv):
+    try:
+        _, problems_file, result_file, count = argv
+        count = int(count)
+    except ValueError:
+        print(__doc__, file=sys.stderr)
+        return 2
+    with open(problems_file, "rb") as f:
+        problems = tomllib.load(f)
+    joint_limits, tcp_limits = limits_as_planned(problems)
     started = time.perf_counter()
     durations = [
         optimum(p["path"], p["length_m"], joint_limits, tcp_limits, p["ours_s"])
         if k < count
         else math.nan
-        for k, p in enumerate(lines)
+        for k, p in enumerate(problems.get("linear", []))
     ]
     seconds = time.perf_counter() - started
-    with open(argv[2], "w", encoding="utf-8") as f:
+    with open(result_file, "w", encoding="utf-8") as f:
         f.write(f"casadi = {json.dumps(importlib.metadata.version('casadi'))}\n")
         f.write(f"optimum_seconds = {seconds!r}\n")
         f.write(f"linear_optimum = [{', '.join(repr(float(x)) for x in durations)}]\n")
