@@ -47,10 +47,10 @@
 //! speeding up, from the end), under the forward profile as its speed bound, ends at rest
 //! with a jerk-limited ramp and meets the forward profile where that one is jerk-limited;
 //! a last forward pass runs under it. (A forward profile that comes to rest before the end
-//! bounds the reversed pass only up to its peak before that rest.) What is left, where the estimates of a window were
-//! too optimistic, is found by checking every grid point of the result: before such a
-//! point the speed bound is lowered a little under the profile and the last pass repeated,
-//! at most [`MAX_REPAIRS`] times. Every pass runs under the profile of the one before, so
+//! bounds the reversed pass only up to its peak before that rest.) What is left, where the
+//! estimates of a window were too optimistic, is found by checking every grid point of the
+//! result: before such a point the speed bound is lowered a little under the profile and the
+//! last pass repeated, at most [`MAX_REPAIRS`] times. Every pass runs under the profile of the one before, so
 //! each profile's duration is a lower bound of the table's: a candidate that is already no
 //! faster than the best table so far stops there. All of it works on fixed-size arrays,
 //! without allocation.
@@ -123,8 +123,9 @@ pub fn time(
     may_be_faster(&x)?;
     // From the end under that profile (up to where it is of use): right but for the start,
     // and it meets the forward profile where that one is jerk-limited already.
+    let trusted = forward.trusted_until(&x);
     let mut problem = forward;
-    problem.lower_bound(&x, forward.trusted_until(&x));
+    problem.lower_bound(&x, trusted);
     let reversed = problem.reversed();
     reversed.controllable(&mut sets)?;
     reversed.jerk_greedy(&sets, &mut x, &mut u);
@@ -329,7 +330,7 @@ struct Problem<'a> {
     /// Largest `x` at every grid point.
     bound: [f64; POINTS],
     /// The tangential reach of every interval at the speed bound of the problem as made
-    /// (what the joints allow `|s̈|` at most, scaled by the rates' shares).
+    /// (what the joints allow `|s̈|` at most; the rates' shares of it bound `s̈`).
     reach: [f64; INTERVALS],
     /// Largest `s̈` and `−s̈` in every interval.
     speed_up: [f64; INTERVALS],
@@ -431,7 +432,8 @@ impl JerkRows {
         rows
     }
 
-    /// The rows of the same point on the reversed path: `σ` changes, `q''` does not.
+    /// The rows of the same point on the reversed path: `σ` changes sign, `q''` does not
+    /// (`q'''` changes with `σ`, so its term stays).
     fn reversed(mut self) -> Self {
         for c in &mut self.cross[..self.len] {
             *c = (-c.1, -c.0);
