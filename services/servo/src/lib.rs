@@ -6,7 +6,6 @@ pub mod clock;
 pub mod drives;
 pub mod position_memory;
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use shared_types::bus::{Bus, BusError, publish, receive_latest};
@@ -17,7 +16,7 @@ use shared_types::throttle::WarnThrottle;
 
 use clock::{ClockError, PeriodicClock, monotonic_ns};
 use drives::{Cause, DriveParams, DriveStatus, SimulatedDrives, Transition};
-use position_memory::SharedPosition;
+use position_memory::PositionMemory;
 
 /// At most one overrun log line per this interval (each overrun is counted in the feedback).
 const OVERRUN_LOG_INTERVAL_NS: u64 = 10_000_000_000;
@@ -50,17 +49,13 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
     // The arm stays where it stopped: a restarted servo process (or controller) continues
     // from the stored position, never from home, so the simulated joints never jump.
     let data_dir = config.main.data_dir();
-    let previous = position_memory::load(&data_dir);
+    let (mut position, previous) =
+        PositionMemory::open(&data_dir).map_err(|source| ServoError::PositionMemory {
+            dir: data_dir.display().to_string(),
+            source,
+        })?;
     let start = previous.unwrap_or_else(|| config.robot.home_deg.map(f64::to_radians));
-    let position = Arc::new(SharedPosition::default());
     position.store(&start);
-    let stop_writer = Arc::new(AtomicBool::new(false));
-    let writer =
-        position_memory::spawn_writer(data_dir.clone(), position.clone(), stop_writer.clone())
-            .map_err(|source| ServoError::PositionMemory {
-                dir: data_dir.display().to_string(),
-                source,
-            })?;
     let mut drives = SimulatedDrives::new(DriveParams::from_config(config), start);
     let mut control = ServoControl::default();
     let mut setpoint: Option<ServoSetpoint> = None;
@@ -124,10 +119,6 @@ pub fn run(config: &Config, shutdown: &AtomicBool) -> Result<(), ServoError> {
         tick += 1;
     }
     tracing::info!(tick, overruns = clock.overruns(), "servo stopped");
-    stop_writer.store(true, Ordering::Relaxed);
-    writer.thread().unpark();
-    // The writer stores the final position before it ends.
-    let _ = writer.join();
     Ok(())
 }
 
