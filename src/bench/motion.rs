@@ -200,13 +200,12 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
     let constant_bounds =
         |ours: &[Ours]| ours.iter().map(|o| o.constant_bounds_s).collect::<Vec<_>>();
     let row = |label: String, ratio: &dyn Fn(&Reference) -> Option<report::RatioStats>| {
-        let ratios = match &results.reference {
-            Ok(r) => {
-                ratio(r).ok_or_else(|| "the reference planner failed on every problem".to_string())
-            }
-            Err(ReferenceError::NoEnvironment(_)) => Err("no reference environment".into()),
-            Err(_) => Err("the reference planners failed (see below)".into()),
-        };
+        let ratios = reference_ratios(
+            &results.reference,
+            ratio,
+            "the reference planner failed on every problem",
+            "the reference planners failed (see below)",
+        );
         OptimalityRow { label, ratios }
     };
     let of = report::RatioStats::of;
@@ -241,12 +240,12 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
             label: format!("MoveLinear / jerk-limited optimum, as planned (reserve {reserve})"),
             ratios: match &results.optimum {
                 None => Err("not asked for (--optimum-lines 0)".into()),
-                Some(Ok(o)) => of(&linear_as_planned(p), &o.linear)
-                    .ok_or_else(|| "the optimum converged on no line".to_string()),
-                Some(Err(ReferenceError::NoEnvironment(_))) => {
-                    Err("no reference environment".into())
-                }
-                Some(Err(_)) => Err("bench/optimum.py failed (see below)".into()),
+                Some(optimum) => reference_ratios(
+                    optimum,
+                    |o| of(&linear_as_planned(p), &o.linear),
+                    "the optimum converged on no line",
+                    "bench/optimum.py failed (see below)",
+                ),
             },
         },
         row("cross-check: conic TOPP / toppra, the same".into(), &|r| {
@@ -261,6 +260,22 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
                 .ok_or_else(|| "no line planned".to_string()),
         },
     ]
+}
+
+/// The ratios of a row against the answer of a reference script: `ratio` of it, or why there
+/// are none (`none` where the reference failed on every problem, `failed` where the script
+/// did).
+fn reference_ratios<T>(
+    answer: &Result<T, ReferenceError>,
+    ratio: impl FnOnce(&T) -> Option<report::RatioStats>,
+    none: &str,
+    failed: &str,
+) -> Result<report::RatioStats, String> {
+    match answer {
+        Ok(a) => ratio(a).ok_or_else(|| none.to_string()),
+        Err(ReferenceError::NoEnvironment(_)) => Err("no reference environment".into()),
+        Err(_) => Err(failed.to_string()),
+    }
 }
 
 /// The conic problem's durations of the linear moves (velocity and acceleration only).
