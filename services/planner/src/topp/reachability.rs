@@ -32,11 +32,15 @@
 //! `q'_i` changes sign around `m`, or for the TCP, by the terms' magnitudes either way; see
 //! `JerkRows`), so the change of `u` at `m` has a window. To keep the budget positive the
 //! speed is capped where `|q'''|·ṡ³` would take more than the share
-//! [`ToppLimits::third_share`] of it and `|s̈|` is held to what is left for
-//! `3·|q''|·ṡ·|s̈|` at the stage's speed bound (the largest speed around the stage, so at
-//! the speed the stage ends up with the term takes less, and the window for `s⃛` keeps the
-//! rest). Each pass lowers that bound to the profile of the pass before (the time-optimal
-//! one without the jerk window first, the pointwise fastest), and the hold on `|s̈|` with
+//! [`ToppLimits::third_share`] of it, and `s̈` is held where the window stays open both ways
+//! at every speed up to the stage's speed bound (the largest speed around the stage): per
+//! joint `|q'''·ṡ³ + 3·q''·ṡ·s̈| ≤ j` with both terms at the same speed and with their
+//! signs, so that braking where `q'''` has the sign of `q'` and `q''`, the one term takes
+//! back what the other spends (seed 1 line 74 of `rc bench motion`: the optimum brakes with
+//! the curvature term at 1.19 of the jerk limit and the third-derivative term at −0.28;
+//! held by magnitude, our table took 1.24 times as long, with the signs 1.21). Each pass
+//! lowers that bound to the profile of the pass before (the time-optimal
+//! one without the jerk window first, the pointwise fastest), and the hold on `s̈` with
 //! it: a pass keeps under the profile it runs under.
 //!
 //! The jerk-limited forward pass takes at every stage the largest `u` in that window whose
@@ -337,8 +341,6 @@ struct Problem<'a> {
     braking: [f64; INTERVALS],
     /// Slack of the feasibility tests.
     slack: f64,
-    /// The largest derivatives around every grid point.
-    envelopes: [Envelope; POINTS],
     /// The jerk budgets of every grid point.
     jerk_rows: [JerkRows; POINTS],
 }
@@ -441,6 +443,31 @@ impl JerkRows {
         self
     }
 
+    /// The largest `s̈` and `−s̈` `(up, down)` at which the window of `s⃛` stays open both ways
+    /// at every speed `ṡ` up to `v`: per row `|t·ṡ³ + c·ṡ·s̈| ≤ budget` for `t` and `c` in
+    /// their ranges, with both terms at the same speed, so that where they have opposite
+    /// signs the one takes back what the other spends.
+    fn hold(&self, v: f64) -> (f64, f64) {
+        let (mut up, mut down) = (f64::INFINITY, f64::INFINITY);
+        for r in 0..self.len {
+            let budget = self.budget[r];
+            let ((t_lo, t_hi), (c_lo, c_hi)) = (self.third[r], self.cross[r]);
+            // Speeding up by s̈: c_hi·s̈ adds to the rise of q⃛/|q'|, c_lo to its fall.
+            // Braking by w = −s̈: −c_lo·w adds to the rise, c_hi·w to the fall.
+            let rising = slope_room(t_hi, budget, v);
+            let falling = slope_room(-t_lo, budget, v);
+            if c_hi > 0.0 {
+                up = smaller(up, rising / c_hi);
+                down = smaller(down, falling / c_hi);
+            }
+            if c_lo < 0.0 {
+                up = smaller(up, falling / -c_lo);
+                down = smaller(down, rising / -c_lo);
+            }
+        }
+        (up.max(0.0), down.max(0.0))
+    }
+
     /// The largest rise and fall `(up, down)` of `s⃛` at speeds `ṡ` within `speeds` and path
     /// accelerations `s̈` within `accelerations` (both `(lowest, highest)`) around the point
     /// (negative where the budget is spent).
@@ -466,6 +493,17 @@ impl JerkRows {
         }
         (up, down)
     }
+}
+
+/// The largest `β` with `α·ṡ³ + β·ṡ ≤ budget` for every `ṡ` in `[0, v]` (negative where
+/// `α·v³` alone exceeds the budget). With `α < 0` the cubic peaks inside at
+/// `ṡ = √(β/(3|α|))`, where it is `(2/3)·β·ṡ`.
+fn slope_room(alpha: f64, budget: f64, v: f64) -> f64 {
+    let at_end = (budget - alpha * v * v * v) / v;
+    if alpha >= 0.0 || at_end >= -3.0 * alpha * v * v {
+        return at_end;
+    }
+    (1.5 * budget * (-3.0 * alpha).sqrt()).powf(2.0 / 3.0)
 }
 
 /// The larger of two numbers that are not NaN (a plain comparison: `f64::max` also orders
@@ -507,7 +545,6 @@ impl<'a> Problem<'a> {
         jerk: JerkBound,
     ) -> Result<Self, ToppError> {
         let bound = speed_limits(samples, limits, jerk)?;
-        let envelopes = core::array::from_fn(|k| envelope(samples, k));
         let mut problem = Self {
             samples,
             limits,
@@ -518,23 +555,28 @@ impl<'a> Problem<'a> {
             speed_up: [f64::INFINITY; INTERVALS],
             braking: [f64::INFINITY; INTERVALS],
             slack: FEASIBILITY * bound.iter().copied().fold(0.0, f64::max),
-            envelopes,
-            jerk_rows: core::array::from_fn(|k| JerkRows::new(samples, k, &envelopes[k], limits)),
+            jerk_rows: core::array::from_fn(|k| {
+                JerkRows::new(samples, k, &envelope(samples, k), limits)
+            }),
         };
         problem.rates();
         Ok(problem)
     }
 
     /// The largest `s̈` and `−s̈` of every interval: the rates' shares of the tangential
-    /// reach, and with the jerk bound what the curvature term leaves at the speed bound
-    /// ([`cross_bound`](Self::cross_bound)). Forward problems only (the reversed one takes
+    /// reach, and with the jerk bound the hold on `s̈` at the speed bound
+    /// ([`hold`](Self::hold)). Forward problems only (the reversed one takes
     /// them reversed).
     fn rates(&mut self) {
         debug_assert!(!self.reversed);
+        let holds: [(f64, f64); POINTS] = core::array::from_fn(|k| self.hold(k));
         for k in 0..INTERVALS {
-            let cross = self.cross_bound(k).min(self.cross_bound(k + 1));
-            self.speed_up[k] = (self.limits.speed_up * self.reach[k]).min(cross);
-            self.braking[k] = (self.limits.braking * self.reach[k]).min(cross);
+            let (up, down) = (
+                holds[k].0.min(holds[k + 1].0),
+                holds[k].1.min(holds[k + 1].1),
+            );
+            self.speed_up[k] = (self.limits.speed_up * self.reach[k]).min(up);
+            self.braking[k] = (self.limits.braking * self.reach[k]).min(down);
         }
     }
 
@@ -554,8 +596,6 @@ impl<'a> Problem<'a> {
     fn reversed(&self) -> Self {
         let mut bound = self.bound;
         bound.reverse();
-        let mut envelopes = self.envelopes;
-        envelopes.reverse();
         let mut jerk_rows = self.jerk_rows.map(JerkRows::reversed);
         jerk_rows.reverse();
         let (mut speed_up, mut braking) = (self.braking, self.speed_up);
@@ -566,7 +606,6 @@ impl<'a> Problem<'a> {
             bound,
             speed_up,
             braking,
-            envelopes,
             jerk_rows,
             ..*self
         }
@@ -588,12 +627,12 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// With the jerk bound, the largest `|s̈|` at grid point `k` for which
-    /// `3·|q''|·ṡ·|s̈|` takes at most the jerk budget left after `|q'''|·ṡ³` at the
-    /// largest speed around `k`; unbounded without.
-    fn cross_bound(&self, k: usize) -> f64 {
+    /// With the jerk bound, the largest `s̈` and `−s̈` at grid point `k` that leave its jerk
+    /// window open both ways at every speed up to the largest bound around `k`
+    /// ([`JerkRows::hold`]); unbounded without.
+    fn hold(&self, k: usize) -> (f64, f64) {
         if self.jerk == JerkBound::Off {
-            return f64::INFINITY;
+            return (f64::INFINITY, f64::INFINITY);
         }
         let around = k.saturating_sub(1)..=(k + 1).min(INTERVALS);
         let v = self.bound[around]
@@ -601,22 +640,9 @@ impl<'a> Problem<'a> {
             .fold(0.0f64, |m, b| m.max(*b))
             .sqrt();
         if !(v.is_finite() && v > 0.0) {
-            return f64::INFINITY;
+            return (f64::INFINITY, f64::INFINITY);
         }
-        let e = &self.envelopes[k];
-        let l = self.limits;
-        let mut bound = f64::INFINITY;
-        if e.tcp_curvature > MOVING {
-            let left = (GRID_MARGIN * l.tcp_jerk - e.tcp_third * v * v * v).max(0.0);
-            bound = bound.min(left / (3.0 * e.tcp_curvature * v));
-        }
-        for i in 0..AXES {
-            if e.curvature[i] > MOVING {
-                let left = (GRID_MARGIN * l.jerk[i] - e.third[i] * v * v * v).max(0.0);
-                bound = bound.min(left / (3.0 * e.curvature[i] * v));
-            }
-        }
-        bound
+        self.jerk_rows[k].hold(v)
     }
 
     /// The admissible `u` of stage `k` at `x` into `sets` at `k + 1`: `(lowest, highest)`.

@@ -372,3 +372,58 @@ fn the_third_derivative_term_counts_with_its_sign() {
         (budget - third, budget - third),
     );
 }
+
+/// The room of a slope holds at every speed up to the bound and is the largest that does:
+/// with a negative cubic term the sum peaks inside the range.
+#[test]
+fn the_room_of_a_slope_holds_at_every_speed_and_is_the_largest() {
+    let peak = |alpha: f64, beta: f64, v: f64| {
+        (0..=20_000)
+            .map(|n| v * f64::from(n) / 20_000.0)
+            .map(|s| alpha * s * s * s + beta * s)
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    for alpha in [-40.0, -3.0, -0.2, 0.0, 0.5, 6.0] {
+        for v in [0.3, 1.0, 2.5] {
+            let budget = 12.0;
+            let beta = slope_room(alpha, budget, v);
+            if beta <= 0.0 {
+                assert!(alpha * v * v * v >= budget, "{alpha} {v}: {beta}");
+                continue;
+            }
+            assert!(
+                peak(alpha, beta, v) <= budget * (1.0 + 1e-12),
+                "{alpha} {v}"
+            );
+            assert!(peak(alpha, 1.001 * beta, v) > budget, "{alpha} {v}: {beta}");
+        }
+    }
+}
+
+/// The hold on `s̈` counts the third-derivative term against the curvature term at the same
+/// speed: along a joint moving forward whose `q''` and `q'''` are both positive, braking
+/// makes the two terms cancel, so the hold on braking is far larger than on speeding up
+/// (by magnitude both were the smaller one). Both keep the window open both ways at every
+/// speed up to the bound, and neither could be larger.
+#[test]
+fn the_hold_lets_the_third_term_take_back_what_the_curvature_term_spends() {
+    let limits = cobot();
+    let mut samples = PathSamples::zeros();
+    for k in 0..POINTS {
+        samples.slope[k][0] = 1.0;
+        samples.curvature[k][0] = 2.0 + 2.56 * k as f64 / INTERVALS as f64;
+        samples.third[k][0] = 2.56;
+    }
+    let rows = JerkRows::new(&samples, 100, &envelope(&samples, 100), &limits);
+    let v = 2.0;
+    let (up, down) = rows.hold(v);
+    assert!(down > 1.5 * up, "{up} {down}");
+    let open = |accel: f64| {
+        (0..=2_000).map(|n| v * f64::from(n) / 2_000.0).all(|s| {
+            let (rise, fall) = rows.jerk((s, s), (accel, accel));
+            rise >= -1e-9 && fall >= -1e-9
+        })
+    };
+    assert!(open(up) && open(-down));
+    assert!(!open(1.01 * up) && !open(-1.01 * down));
+}
