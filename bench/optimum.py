@@ -24,8 +24,10 @@ line whose program does not converge gets `nan`.
 
 Usage: python optimum.py PROBLEMS.toml RESULT.toml COUNT
 
-The result is TOML: the CasADi version, the seconds spent, and `linear_optimum`, one
-duration in seconds per linear move of the problem file (`nan` after the first COUNT).
+The result is TOML: the CasADi version, the seconds spent, `linear_optimum`, one duration
+in seconds per linear move of the problem file (`nan` after the first COUNT), and
+`linear_optimum_largest_term`, per line the largest share of its limit that one term of a
+joint's acceleration or jerk takes in the optimum (see `largest_term`).
 """
 
 import importlib.metadata
@@ -81,7 +83,8 @@ def initial_guess(duration):
 
 def optimum(path, length_m, joint_limits, tcp_limits, guess_s):
     """The shortest duration (s) of the line along `path`, IPOPT started from profiles of
-    `guess_s` times each of `GUESS_FACTORS`; nan if it converges from none."""
+    `guess_s` times each of `GUESS_FACTORS`, and its `largest_term`; both nan if it
+    converges from none."""
     grid, tables = derivative_tables(path)
     d1, d2, d3 = (interpolant(f"d{n}", grid, t) for n, t in zip((1, 2, 3), tables))
     v_max = np.asarray(joint_limits["velocity"], float)
@@ -134,10 +137,37 @@ def optimum(path, length_m, joint_limits, tcp_limits, guess_s):
         opti.set_initial(a, ga)
         opti.set_initial(jerk, gj)
         try:
-            return float(opti.solve().value(duration))
+            solution = opti.solve()
         except RuntimeError:
             continue
-    return math.nan
+        profile = [np.asarray(solution.value(x), float).ravel() for x in (s, v, a, jerk)]
+        term = largest_term(profile, grid, tables, a_max, j_max)
+        return float(solution.value(duration)), term
+    return math.nan, math.nan
+
+
+def largest_term(profile, grid, tables, a_max, j_max):
+    """The largest share of its limit that one term of a joint's acceleration (`q''·ṡ²`,
+    `q'·s̈`) or jerk (`q'''·ṡ³`, `3·q''·ṡ·s̈`, `q'·s⃛` with the jerk of either step) takes at a
+    step boundary of the solved `profile` `(s, ṡ, s̈, s⃛)`: above 1 where the optimum lets
+    terms beyond their limit cancel each other."""
+    s, v, a, jerk = profile
+    d1, d2, d3 = (
+        np.column_stack([np.interp(s, grid, t[:, i]) for i in range(t.shape[1])])
+        for t in tables
+    )
+    v, a = v[:, None], a[:, None]
+    before = np.concatenate(([jerk[0]], jerk))[:, None]
+    after = np.concatenate((jerk, [jerk[-1]]))[:, None]
+    shares = [
+        np.abs(d2 * v**2) / a_max,
+        np.abs(d1 * a) / a_max,
+        np.abs(d3 * v**3) / j_max,
+        np.abs(3 * d2 * v * a) / j_max,
+        np.abs(d1 * before) / j_max,
+        np.abs(d1 * after) / j_max,
+    ]
+    return float(max(x.max() for x in shares))
 
 
 def limits_as_planned(problems):
@@ -162,17 +192,21 @@ def main(argv):
         problems = tomllib.load(f)
     joint_limits, tcp_limits = limits_as_planned(problems)
     started = time.perf_counter()
-    durations = [
+    solved = [
         optimum(p["path"], p["length_m"], joint_limits, tcp_limits, p["ours_s"])
         if k < count
-        else math.nan
+        else (math.nan, math.nan)
         for k, p in enumerate(problems.get("linear", []))
     ]
+    durations = [d for d, _ in solved]
+    terms = [t for _, t in solved]
     seconds = time.perf_counter() - started
     with open(result_file, "w", encoding="utf-8") as f:
         f.write(f"casadi = {json.dumps(importlib.metadata.version('casadi'))}\n")
         f.write(f"optimum_seconds = {seconds!r}\n")
         f.write(f"linear_optimum = [{', '.join(repr(float(x)) for x in durations)}]\n")
+        terms_text = ", ".join(repr(float(x)) for x in terms)
+        f.write(f"linear_optimum_largest_term = [{terms_text}]\n")
     return 0
 
 

@@ -95,6 +95,10 @@ pub struct Optimum {
     pub seconds: f64,
     /// One duration (s) per linear move, NaN where it was not asked for or did not converge.
     pub linear: Vec<f64>,
+    /// Per linear move the largest share of its limit that one term of a joint's
+    /// acceleration or jerk takes in the optimum (above 1 where terms beyond their limits
+    /// cancel each other), NaN as in `linear`.
+    pub largest_term: Vec<f64>,
 }
 
 fn floats(values: impl IntoIterator<Item = f64>) -> Value {
@@ -159,7 +163,7 @@ pub fn problems_toml(robot: &Robot, problems: &Problems) -> String {
     root.to_string()
 }
 
-/// The string, number and duration arrays of a result file.
+/// The strings, numbers and arrays of numbers of a result file.
 struct ResultFile(Table);
 
 impl ResultFile {
@@ -185,7 +189,7 @@ impl ResultFile {
     }
 
     /// The array `key` of exactly `expected` numbers.
-    fn durations(&self, key: &str, expected: usize) -> Result<Vec<f64>, String> {
+    fn numbers(&self, key: &str, expected: usize) -> Result<Vec<f64>, String> {
         let values = self
             .0
             .get(key)
@@ -199,7 +203,7 @@ impl ResultFile {
             .collect::<Result<Vec<f64>, String>>()?;
         if values.len() != expected {
             return Err(format!(
-                "{key}: {} durations for {expected} problems",
+                "{key}: {} numbers for {expected} problems",
                 values.len()
             ));
         }
@@ -215,20 +219,21 @@ pub fn parse_reference(text: &str, joints: usize, lines: usize) -> Result<Refere
         toppra_version: file.string("toppra")?,
         ruckig_s: file.float("ruckig_seconds")?,
         toppra_s: file.float("toppra_seconds")?,
-        joint: file.durations("joint", joints)?,
-        linear: file.durations("linear", lines)?,
-        joint_toppra: file.durations("joint_toppra", joints)?,
-        linear_bound: file.durations("linear_bound", lines)?,
+        joint: file.numbers("joint", joints)?,
+        linear: file.numbers("linear", lines)?,
+        joint_toppra: file.numbers("joint_toppra", joints)?,
+        linear_bound: file.numbers("linear_bound", lines)?,
     })
 }
 
-/// Parses the optimum's result, which must hold `lines` durations.
+/// Parses the optimum's result, which must hold `lines` durations and their largest terms.
 pub fn parse_optimum(text: &str, lines: usize) -> Result<Optimum, String> {
     let file = ResultFile::parse(text)?;
     Ok(Optimum {
         casadi_version: file.string("casadi")?,
         seconds: file.float("optimum_seconds")?,
-        linear: file.durations("linear_optimum", lines)?,
+        linear: file.numbers("linear_optimum", lines)?,
+        largest_term: file.numbers("linear_optimum_largest_term", lines)?,
     })
 }
 
@@ -370,29 +375,30 @@ mod tests {
         assert!(e.contains("no array linear_bound"), "{e}");
         let short = RESULT.replace("linear_bound = [0.375]", "linear_bound = []");
         let e = parse_reference(&short, 2, 1).unwrap_err();
-        assert!(
-            e.contains("linear_bound: 0 durations for 1 problems"),
-            "{e}"
-        );
+        assert!(e.contains("linear_bound: 0 numbers for 1 problems"), "{e}");
     }
 
     #[test]
     fn a_result_for_other_problems_is_refused() {
         let e = parse_reference(RESULT, 3, 1).unwrap_err();
-        assert!(e.contains("2 durations for 3 problems"), "{e}");
+        assert!(e.contains("2 numbers for 3 problems"), "{e}");
         assert!(parse_reference("joint = [1.0]", 1, 0).is_err());
     }
 
     #[test]
     fn the_optimum_is_read_for_every_line_and_checked_against_their_number() {
-        let text = "casadi = \"3.7.2\"\noptimum_seconds = 4.5\nlinear_optimum = [0.5, nan]\n";
+        let text = "casadi = \"3.7.2\"\noptimum_seconds = 4.5\nlinear_optimum = [0.5, nan]\n\
+                    linear_optimum_largest_term = [2.5, nan]\n";
         let o = parse_optimum(text, 2).unwrap();
         assert_eq!((o.casadi_version.as_str(), o.seconds), ("3.7.2", 4.5));
-        assert_eq!(o.linear[0], 0.5);
-        assert!(o.linear[1].is_nan());
+        assert_eq!((o.linear[0], o.largest_term[0]), (0.5, 2.5));
+        assert!(o.linear[1].is_nan() && o.largest_term[1].is_nan());
+        let without = text.replace("linear_optimum_largest_term = [2.5, nan]\n", "");
+        let e = parse_optimum(&without, 2).unwrap_err();
+        assert!(e.contains("no array linear_optimum_largest_term"), "{e}");
         let e = parse_optimum(text, 3).unwrap_err();
         assert!(
-            e.contains("linear_optimum: 2 durations for 3 problems"),
+            e.contains("linear_optimum: 2 numbers for 3 problems"),
             "{e}"
         );
         let e = parse_optimum(&text.replace("casadi", "ipopt"), 2).unwrap_err();
