@@ -100,6 +100,16 @@ pub const SPEED_STEPS: usize = 8;
 pub const JERK_SPLITS: [f64; 4] = [0.2, 0.4, 0.6, 0.8];
 /// Share of a joint's acceleration limit the path curvature term `q''·ṡ²` may take.
 pub const CURVATURE_SHARE: f64 = 0.5;
+/// Share of a joint's jerk limit the term `|q'''|·ṡ³` may take at any point in the table
+/// candidate bounded point by point: a lower speed where the path bends fast leaves more
+/// of the jerk budget for changing `s̈`. With the hold on `s̈` by signs, [`topp::THIRD_SHARE`]
+/// (0.5) was faster on the lines of `rc bench motion` (seed 1: 26 instead of 33 over 1.02
+/// against their jerk-limited optimum), but its tables' path acceleration in the first grid
+/// interval, which the positions follow at once while the commanded acceleration ramps up to
+/// it, took a blend from a joint move into such a line over the acceleration limit
+/// (the regression of `random_blended_sequences_keep_the_joint_limits`, J1 12.96 rad/s²
+/// against 12.57).
+pub const LOCAL_THIRD_SHARE: f64 = 0.2;
 /// Shares of the acceleration and jerk limits for `|q''|·ṙ²` and `|q'''|·ṙ³` in the table
 /// candidate on the joints' pace ([`path_warp`](crate::path_warp)): there the path bends
 /// less sharply, and more of the budget for these terms was faster on the near-singular
@@ -844,13 +854,12 @@ fn joint_pace(samples: &PathSamples, arm: &Arm<'_>) -> Option<(PathWarp, f64)> {
 /// fast (it bounds `3·q''·ṡ·s̈` at each stage's highest speed, so a lower speed bound may
 /// give a faster table): the curvature term bounded at every point alone (`|q''|·ṡ² ≤
 /// CURVATURE_SHARE·a`), which does not let one point near a singular set slow the whole path
-/// down (both hold `|q'''|·ṡ³` to [`topp::THIRD_SHARE`] of the jerk limit at every point:
-/// since the hold on `s̈` counts that term with its sign, the candidate's former 0.2 was no
-/// longer faster on any line of `rc bench motion`, seed 1), and the speed capped everywhere
-/// where constant stop bounds stop to exist ([`JointBounds::stop_speed`], the worst point of
-/// the path). The first is the faster on most lines (`rc bench motion --problems 60`, seed
-/// 1: 438 of 510 timings), so it is timed first: the second then often ends at a lower bound
-/// of its duration, before its jerk-limited passes.
+/// down and also holds `|q'''|·ṡ³` to [`LOCAL_THIRD_SHARE`] of the jerk limit at every point,
+/// and the speed capped everywhere where constant stop bounds stop to exist
+/// ([`JointBounds::stop_speed`], the worst point of the path). The first is the faster on
+/// most lines (`rc bench motion --problems 60`, seed 1: 438 of 510 timings), so it is timed
+/// first: the second then often ends at a lower bound of its duration, before its
+/// jerk-limited passes.
 fn table_limits(
     command: &MotionCommand,
     survey: &Survey,
@@ -893,6 +902,7 @@ fn table_limits(
             Some(ToppLimits {
                 speed_cap: cartesian.velocity,
                 curvature_share: CURVATURE_SHARE,
+                third_share: LOCAL_THIRD_SHARE,
                 ..limits
             }),
             Some(limits),
