@@ -1563,13 +1563,21 @@ mod tests {
     /// the jerk-limited optimum takes 0.94 s). The line keeps the limits.
     #[test]
     fn a_paced_table_that_runs_into_its_third_derivative_cap_is_timed_with_a_larger_share() {
+        assert_paced_within(
+            [1.30364, 3.75005, 0.04804, 2.47003, 5.81163, 1.43267],
+            [-0.14678, -0.47502, -0.39669, 1.68284, -1.05262, 1.26597],
+            1.12,
+        );
+    }
+
+    /// The line from `start` to `pose` is timed on the joints' pace, in less than `longest`
+    /// s, and keeps the limits tick by tick.
+    fn assert_paced_within(start: [f64; AXES], pose: [f64; 6], longest: f64) {
         let setup = Setup::new();
-        let start = [1.30364, 3.75005, 0.04804, 2.47003, 5.81163, 1.43267];
-        let c = linear_to([-0.14678, -0.47502, -0.39669, 1.68284, -1.05262, 1.26597]);
-        let m = setup.planned(start, &c);
+        let m = setup.planned(start, &linear_to(pose));
         assert!(m.warp.is_some(), "timed on the joints' pace");
         let duration = m.timing().profile.duration();
-        assert!(duration < 1.12, "{duration} s");
+        assert!(duration < longest, "{duration} s");
         setup.check_limits(&setup.run(&m, start));
     }
 
@@ -1580,14 +1588,11 @@ mod tests {
     /// end made the paced table fail and left the 1.27 s of the table by the path position).
     #[test]
     fn a_first_pass_that_stops_short_does_not_hold_the_paced_table_back() {
-        let setup = Setup::new();
-        let start = [-4.31017, 4.22901, 0.80554, 0.75634, -0.93800, -4.52948];
-        let c = linear_to([-0.01842, -0.11373, -0.64094, 1.95136, -1.32038, 2.71164]);
-        let m = setup.planned(start, &c);
-        assert!(m.warp.is_some(), "timed on the joints' pace");
-        let duration = m.timing().profile.duration();
-        assert!(duration < 1.0, "{duration} s");
-        setup.check_limits(&setup.run(&m, start));
+        assert_paced_within(
+            [-4.31017, 4.22901, 0.80554, 0.75634, -0.93800, -4.52948],
+            [-0.01842, -0.11373, -0.64094, 1.95136, -1.32038, 2.71164],
+            1.0,
+        );
     }
 
     /// The third derivatives of a paced path (which the jerk budget of its table counts)

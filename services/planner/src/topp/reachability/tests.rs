@@ -268,6 +268,18 @@ fn a_table_that_cannot_be_faster_is_not_made() {
     assert!(time(&straight(), &l, JerkBound::Joints, 2.0 * free.duration()).is_ok());
 }
 
+/// A path on which only joint 1 moves, forward at `q' = 1`, its `q''` rising from
+/// `curvature` at the start at the constant `q''' = third`.
+fn forward_joint(curvature: f64, third: f64) -> PathSamples {
+    let mut samples = PathSamples::zeros();
+    for k in 0..POINTS {
+        samples.slope[k][0] = 1.0;
+        samples.curvature[k][0] = curvature + third * k as f64 / INTERVALS as f64;
+        samples.third[k][0] = third;
+    }
+    samples
+}
+
 /// The curvature term counts with its sign: on a joint whose `q'` and `q''` are positive,
 /// braking (`s̈ < 0`) makes `3·q''·ṡ·s̈` negative, which leaves `s⃛` more room to rise (to
 /// ease off) than to fall (to brake harder). The reversed path sees the same braking as
@@ -276,11 +288,7 @@ fn a_table_that_cannot_be_faster_is_not_made() {
 #[test]
 fn the_curvature_term_counts_with_its_sign() {
     let limits = cobot();
-    let mut samples = PathSamples::zeros();
-    for k in 0..POINTS {
-        samples.slope[k][0] = 1.0;
-        samples.curvature[k][0] = 2.0;
-    }
+    let mut samples = forward_joint(2.0, 0.0);
     let rows =
         |samples: &PathSamples, k: usize| JerkRows::new(samples, k, &envelope(samples, k), &limits);
     let budget = GRID_MARGIN * limits.jerk[0];
@@ -341,13 +349,8 @@ fn the_rates_follow_a_lowered_speed_bound() {
 #[test]
 fn the_third_derivative_term_counts_with_its_sign() {
     let limits = cobot();
-    let mut samples = PathSamples::zeros();
     let third = 2.56;
-    for k in 0..POINTS {
-        samples.slope[k][0] = 1.0;
-        samples.curvature[k][0] = third * k as f64 / INTERVALS as f64;
-        samples.third[k][0] = third;
-    }
+    let mut samples = forward_joint(0.0, third);
     let rows =
         |samples: &PathSamples| JerkRows::new(samples, 100, &envelope(samples, 100), &limits);
     let budget = GRID_MARGIN * limits.jerk[0];
@@ -408,12 +411,7 @@ fn the_room_of_a_slope_holds_at_every_speed_and_is_the_largest() {
 #[test]
 fn the_hold_lets_the_third_term_take_back_what_the_curvature_term_spends() {
     let limits = cobot();
-    let mut samples = PathSamples::zeros();
-    for k in 0..POINTS {
-        samples.slope[k][0] = 1.0;
-        samples.curvature[k][0] = 2.0 + 2.56 * k as f64 / INTERVALS as f64;
-        samples.third[k][0] = 2.56;
-    }
+    let samples = forward_joint(2.0, 2.56);
     let rows = JerkRows::new(&samples, 100, &envelope(&samples, 100), &limits);
     let v = 2.0;
     let (up, down) = rows.hold(v);
