@@ -37,11 +37,11 @@
 //! joint `|q'''·ṡ³ + 3·q''·ṡ·s̈| ≤ j` with both terms at the same speed and with their
 //! signs, so that braking where `q'''` has the sign of `q'` and `q''`, the one term takes
 //! back what the other spends (seed 1 line 74 of `rc bench motion`: the optimum brakes with
-//! the curvature term at 1.19 of the jerk limit and the third-derivative term at −0.28;
-//! held by magnitude, our table took 1.24 times as long, with the signs 1.21). Each pass
-//! lowers that bound to the profile of the pass before (the time-optimal
-//! one without the jerk window first, the pointwise fastest), and the hold on `s̈` with
-//! it: a pass keeps under the profile it runs under.
+//! the curvature term at −1.19 times the jerk limit and the third-derivative term at +0.28;
+//! held by magnitude, our table took 1.24 times as long as the optimum, with the signs
+//! 1.21). Each pass lowers that bound to the profile of the pass before (the time-optimal
+//! one without the jerk window first, the pointwise fastest), and the hold on `s̈` with it:
+//! a pass keeps under the profile it runs under.
 //!
 //! The jerk-limited forward pass takes at every stage the largest `u` in that window whose
 //! fastest way down (`u` lowered as fast as the window allows, down to the largest braking
