@@ -141,21 +141,19 @@ def optimum(path, length_m, joint_limits, tcp_limits, guess_s):
         except RuntimeError:
             continue
         profile = [np.asarray(solution.value(x), float).ravel() for x in (s, v, a, jerk)]
-        term = largest_term(profile, grid, tables, a_max, j_max)
+        term = largest_term(profile, (d1, d2, d3), a_max, j_max)
         return float(solution.value(duration)), term
     return math.nan, math.nan
 
 
-def largest_term(profile, grid, tables, a_max, j_max):
+def largest_term(profile, derivatives, a_max, j_max):
     """The largest share of its limit that one term of a joint's acceleration (`q''·ṡ²`,
     `q'·s̈`) or jerk (`q'''·ṡ³`, `3·q''·ṡ·s̈`, `q'·s⃛` with the jerk of either step) takes at a
-    step boundary of the solved `profile` `(s, ṡ, s̈, s⃛)`: above 1 where the optimum lets
-    terms beyond their limit cancel each other."""
+    step boundary of the solved `profile` `(s, ṡ, s̈, s⃛)`, with the path's `derivatives`
+    (the interpolants the program used): above 1 where the optimum lets terms beyond their
+    limit cancel each other."""
     s, v, a, jerk = profile
-    d1, d2, d3 = (
-        np.column_stack([np.interp(s, grid, t[:, i]) for i in range(t.shape[1])])
-        for t in tables
-    )
+    d1, d2, d3 = (np.asarray(d.map(len(s))(s)).T for d in derivatives)
     v, a = v[:, None], a[:, None]
     before = np.concatenate(([jerk[0]], jerk))[:, None]
     after = np.concatenate((jerk, [jerk[-1]]))[:, None]
