@@ -42,8 +42,9 @@ pub fn assert_within_limits(points: &[JointPoint], limits: &JointLimitsRad, dt: 
     }
 }
 
-/// The jerk of the commanded accelerations (their change over one tick of `dt` s) keeps the
-/// joint jerk limits: true for moves and stops, not for override ramps.
+/// The jerk of the commanded accelerations (their change over one tick of `dt` s) and of the
+/// positions (their third differences: what a servo that follows position setpoints sees)
+/// keeps the joint jerk limits: true for moves and stops, not for override ramps.
 pub fn assert_jerk_within_limits(points: &[JointPoint], limits: &JointLimitsRad, dt: f64) {
     for w in points.windows(2) {
         for i in 0..AXES {
@@ -51,6 +52,17 @@ pub fn assert_jerk_within_limits(points: &[JointPoint], limits: &JointLimitsRad,
             assert!(
                 jerk <= limits.jerk[i] * (1.0 + SLACK),
                 "jerk {jerk} joint {i}"
+            );
+        }
+    }
+    for (n, w) in points.windows(4).enumerate() {
+        for i in 0..AXES {
+            let third = w[3].q[i] - 3.0 * w[2].q[i] + 3.0 * w[1].q[i] - w[0].q[i];
+            let jerk = third.abs() / dt.powi(3);
+            // Rounding of positions near 1 rad: 8·1e-16 rad over dt³.
+            assert!(
+                jerk <= limits.jerk[i] * (1.0 + SLACK) + 1e-3,
+                "jerk of the positions {jerk} joint {i} at point {n}"
             );
         }
     }

@@ -35,16 +35,17 @@
 //! `c_k² ≤ b_k` and `d_k·(c_k + c_{k+1}) ≥ 1`, minimising `Σ 2Δs·d_k` (variables scaled so
 //! that `b` lies in [0, 1]).
 //!
-//! The table's `s̈` changes linearly in time between the middles of neighbouring intervals
-//! ([`table`]); at grid point `m` it changes by `a_m − a_{m−1}` (`a_{−1} = a_N = 0`) over at
-//! least `Δs/ṡ_hi`, `ṡ_hi` the largest speed of the points around. The convex row
-//! `|a_m − a_{m−1}| ≤ J_m·Δs/ṡ_hi` therefore bounds the path jerk `|s⃛| ≤ J_m`, where `J_m`
-//! is what the joints' jerk budget leaves for `q'·s⃛` after `|q'''|·ṡ³ + 3·|q''|·ṡ·|s̈|`. As
-//! `ṡ_hi` and `|s̈|` are not known before the solve, the first pass solves without the jerk
-//! rows, and each further pass takes them from the pass before; a pass whose own solution
-//! keeps the jerk budget at every grid point is taken (at most [`MAX_PASSES`]). The rows are
-//! conservative (a slower profile than a true third-order TOPP) and `s̈` is the blended one,
-//! not the exact derivative of the table's `ṡ`.
+//! The table's `s̈` changes linearly in `s` between the middles of neighbouring intervals
+//! and its positions follow it exactly ([`table`]); around grid point `m` it changes by
+//! `a_m − a_{m−1}` (`a_{−1} = a_N = 0`) over `Δs`, at a path jerk of that change times
+//! `ṡ/Δs`, so at most `ṡ_hi/Δs` times it, `ṡ_hi` the largest speed of the points around (at
+//! the ends a ramp from rest, gentler still). The convex row `|a_m − a_{m−1}| ≤ J_m·Δs/ṡ_hi`
+//! therefore bounds the path jerk `|s⃛| ≤ J_m`, where `J_m` is what the joints' jerk budget
+//! leaves for `q'·s⃛` after `|q'''|·ṡ³ + 3·|q''|·ṡ·|s̈|`. As `ṡ_hi` and `|s̈|` are not known
+//! before the solve, the first pass solves without the jerk rows, and each further pass takes
+//! them from the pass before; a pass whose own solution keeps the jerk budget at every grid
+//! point is taken (at most [`MAX_PASSES`]). The rows are conservative (a slower profile than
+//! a true third-order TOPP).
 //!
 //! One clarabel solver is built on a fixed sparsity (presolve off, zeros kept) and updated
 //! in place (`update_A`, `update_b`) for every path. Measured with a counting allocator
@@ -489,7 +490,7 @@ impl Solver {
     ) -> Result<TableProfile, ToppError> {
         speed_bounds(samples, limits, jerk, &mut self.rows)?;
         self.rows.jerk = [UNBOUND; POINTS];
-        let mut profile = self.solve(samples, limits)?;
+        let mut profile = self.solve(samples, limits, jerk)?;
         if jerk == JerkBound::Off {
             return Ok(profile);
         }
@@ -499,18 +500,19 @@ impl Solver {
             if jerk_rows(samples, limits, &profile, &mut speed, &mut self.rows) {
                 return Ok(profile);
             }
-            profile = self.solve(samples, limits)?;
+            profile = self.solve(samples, limits, jerk)?;
         }
         jerk_rows(samples, limits, &profile, &mut speed, &mut self.rows)
             .then_some(profile)
             .ok_or(ToppError::JerkUnsettled(MAX_PASSES))
     }
 
-    /// One solve with the current rows.
+    /// One solve with the current rows; the table's ramps from and to rest as `jerk`.
     fn solve(
         &mut self,
         samples: &PathSamples,
         limits: &ToppLimits,
+        jerk: JerkBound,
     ) -> Result<TableProfile, ToppError> {
         emit(
             samples,
@@ -539,7 +541,7 @@ impl Solver {
         let speeds = core::array::from_fn(|k| {
             (x[layout::b(k)].clamp(0.0, self.rows.speed[k]) * scale).sqrt()
         });
-        Ok(TableProfile::from_speeds(&speeds)?)
+        Ok(TableProfile::from_speeds(&speeds, jerk)?)
     }
 }
 
