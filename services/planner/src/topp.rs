@@ -35,17 +35,19 @@
 //! `c_k² ≤ b_k` and `d_k·(c_k + c_{k+1}) ≥ 1`, minimising `Σ 2Δs·d_k` (variables scaled so
 //! that `b` lies in [0, 1]).
 //!
-//! The table's `s̈` changes linearly in `s` between the middles of neighbouring intervals
-//! and its positions follow it exactly ([`table`]); around grid point `m` it changes by
-//! `a_m − a_{m−1}` (`a_{−1} = a_N = 0`) over `Δs`, at a path jerk of that change times
-//! `ṡ/Δs`, so at most `ṡ_hi/Δs` times it, `ṡ_hi` the largest speed of the points around (at
-//! the ends a ramp from rest, gentler still). The convex row `|a_m − a_{m−1}| ≤ J_m·Δs/ṡ_hi`
-//! therefore bounds the path jerk `|s⃛| ≤ J_m`, where `J_m` is what the joints' jerk budget
-//! leaves for `q'·s⃛` after `|q'''|·ṡ³ + 3·|q''|·ṡ·|s̈|`. As `ṡ_hi` and `|s̈|` are not known
-//! before the solve, the first pass solves without the jerk rows, and each further pass takes
-//! them from the pass before; a pass whose own solution keeps the jerk budget at every grid
-//! point is taken (at most [`MAX_PASSES`]). The rows are conservative (a slower profile than
-//! a true third-order TOPP).
+//! The table's `s̈` runs from `a_{m−1}` at the middle of interval `m − 1` to `a_m` at the
+//! middle of `m` (`a_{−1} = a_N = 0`) and its positions follow it exactly ([`table`]):
+//! linearly in `s` on most of the path, at a path jerk of `(a_m − a_{m−1})·ṡ/Δs`, at most
+//! `ṡ_hi/Δs` times the change, `ṡ_hi` the largest speed of the points around; linearly in
+//! time in the zones next to the ends, where the stretch takes about `Δs/ṡ` or longer; from
+//! and to rest a ramp, gentler still. The convex row `|a_m − a_{m−1}| ≤ J_m·Δs/ṡ_hi`
+//! therefore bounds the path jerk `|s⃛| ≤ J_m` (up to how the zones' speeds drift from the
+//! table's by a little), where `J_m` is what the joints' jerk budget leaves for `q'·s⃛`
+//! after `|q'''|·ṡ³ + 3·|q''|·ṡ·|s̈|`. As `ṡ_hi` and `|s̈|` are not known before the solve,
+//! the first pass solves without the jerk rows, and each further pass takes them from the
+//! pass before; a pass whose own solution keeps the jerk budget at every grid point is taken
+//! (at most [`MAX_PASSES`]). The rows are conservative (a slower profile than a true
+//! third-order TOPP).
 //!
 //! One clarabel solver is built on a fixed sparsity (presolve off, zeros kept) and updated
 //! in place (`update_A`, `update_b`) for every path. Measured with a counting allocator

@@ -23,17 +23,16 @@
 //!
 //! # Jerk
 //!
-//! The [`TableProfile`] runs `s̈` linearly in `s` from the middle of one interval to the
-//! middle of the next, so around grid point `m` the path jerk is `(u_m − u_{m−1})·ṡ/Δs`
-//! (`u_{−1} = u_N = 0`), at most at the stretch's fastest point: a middle, or `m` itself
-//! where the speed peaks. From and to rest it ramps `s̈` at a constant jerk, which reaches
-//! `u_0` (or `u_{N−1}`) over `√6·Δs/ṡ` of the speed next to the end. (Run instead linearly
-//! in time between the middles, as the commanded `s̈` was until the table's positions
-//! followed it, the path jerk would be the change over the time between them: 2.2 % faster
-//! at the median of the 100 lines of `rc bench motion`, all of it within 20 grid points of
-//! the ends, where the speed varies much along one interval; but such a profile does not
-//! integrate to the table's speeds.) With `q⃛ = q'''·ṡ³ + 3·q''·ṡ·s̈ + q'·s⃛` the joints'
-//! jerk budget leaves `s⃛` a window `[−down_m, up_m]`: per joint
+//! The [`TableProfile`] runs `s̈` from `u_{m−1}` at the middle of interval `m − 1` to `u_m`
+//! at the middle of `m` (`u_{−1} = u_N = 0`) and its positions follow it. In the zones next
+//! to the ends it does so linearly in time, at a path jerk of the change over the stretch's
+//! time (estimated here from the table's speeds at the middles); between them linearly in
+//! `s`, at `(u_m − u_{m−1})·ṡ/Δs`, largest at the stretch's fastest point (a middle, or `m`
+//! itself where the speed peaks); from and to rest it ramps at a constant jerk, which
+//! reaches `u_0` (or `u_{N−1}`) over `√6·Δs/ṡ` of the speed next to the end. The last pass
+//! checks the table as it runs, stretch by stretch. With
+//! `q⃛ = q'''·ṡ³ + 3·q''·ṡ·s̈ + q'·s⃛` the joints' jerk budget leaves `s⃛` a window
+//! `[−down_m, up_m]`: per joint
 //! `(j_i ∓ σ_i·q'''_i·ṡ³ ∓ 3·σ_i·q''_i·ṡ·s̈)/|q'_i|`, `σ_i` the sign of `q'_i`, over the
 //! ranges of `ṡ`, `s̈`, `q''` and `q'''` around `m` and the largest `|q'|` there (where
 //! `q'_i` changes sign around `m`, or for the TCP, by the terms' magnitudes either way; see
@@ -59,15 +58,17 @@
 //! with a jerk-limited ramp and meets the forward profile where that one is jerk-limited;
 //! a last forward pass runs under it. (A forward profile that comes to rest before the end
 //! bounds the reversed pass only up to its peak before that rest.) What is left, where the
-//! estimates of a window were too optimistic, is found by checking every grid point of the
-//! result: before such a point the speed bound is lowered a little under the profile and the
-//! last pass repeated, at most [`MAX_REPAIRS`] times. Every pass runs under the profile of the one before, so
-//! each profile's duration is a lower bound of the table's: a candidate that is already no
-//! faster than the best table so far stops there. All of it works on fixed-size arrays,
-//! without allocation.
+//! estimates of a window were too optimistic, is found by checking the jerk of the table
+//! made of the result around every grid point: before such a point the speed bound is
+//! lowered a little under the profile and the last pass repeated, at most [`MAX_REPAIRS`]
+//! times. Every pass runs under the profile of the one before, so each profile's duration
+//! (with steps of `s̈` from and to rest) is a lower bound of the table's: a candidate that is
+//! already no faster than the best table so far stops there. All of it works on fixed-size
+//! arrays, without allocation.
 
 use shared_types::ipc::AXES;
 
+use super::table::{self, ZONE};
 use super::{
     GRID_MARGIN, INTERVALS, JerkBound, MOVING, POINTS, PathSamples, TableProfile, ToppError,
     ToppLimits, interval_reach, speed_limits,
@@ -88,6 +89,8 @@ const WINDOW_STEPS: usize = 8;
 const WINDOW_TOLERANCE: f64 = 1e-5;
 /// Relative slack of the jerk check for rounding.
 const JERK_TOLERANCE: f64 = 1e-6;
+/// Absolute slack of the jerk check for rounding, in 1/s³ of the path jerk.
+const JERK_FLOOR: f64 = 1e-9;
 /// Slack of the feasibility tests, relative to the largest speed bound.
 const FEASIBILITY: f64 = 1e-9;
 /// Rows of one stage: joints at both ends with both signs, the TCP at both ends with both
@@ -152,8 +155,9 @@ pub fn time(
     for pass in 1..=MAX_REPAIRS + 1 {
         problem.controllable(&mut sets)?;
         problem.jerk_greedy(&sets, &mut x, &mut u);
-        let Some(m) = problem.jerk_violation(&x, &u) else {
-            return Ok((table(&x, jerk)?, pass + 3));
+        let table = table(&x, jerk)?;
+        let Some(m) = problem.jerk_violation(&table) else {
+            return Ok((table, pass + 3));
         };
         let before = m.saturating_sub(REPAIR_SPAN).max(1)..=m.min(INTERVALS - 1);
         for (bound, x) in problem.bound[before.clone()].iter_mut().zip(&x[before]) {
@@ -725,15 +729,9 @@ impl<'a> Problem<'a> {
     }
 
     /// The largest rise and fall `(up, down)` of `s̈` around grid point `m` the jerk budget
-    /// allows, for the speeds² `x` around it (`before` at `m − 1`, `next` at `m + 1`, ignored
+    /// allows, for the speeds `ṡ` around it (`before` at `m − 1`, `next` at `m + 1`, ignored
     /// at the ends) and the path accelerations `before_u` of interval `m − 1` and `after_u`
     /// of `m`.
-    fn window(&self, m: usize, x: [f64; 3], before_u: f64, after_u: f64) -> (f64, f64) {
-        self.window_at_speeds(m, x.map(speed), before_u, after_u)
-    }
-
-    /// [`window`](Self::window) with the speeds `ṡ` instead of their squares: a ramp asks
-    /// for many windows at the same two of them.
     fn window_at_speeds(
         &self,
         m: usize,
@@ -751,15 +749,20 @@ impl<'a> Problem<'a> {
         }
         // The table runs `s̈` linearly in `s` over `Δs` (its jerk `Δu·ṡ/Δs`), and at the
         // ends ramps it at a constant jerk from and to rest (see `TableProfile`).
-        // The table runs `s̈` linearly in `s` from the middle of one interval to the middle
-        // of the next (its jerk `Δu·ṡ/Δs` at most at the stretch's fastest point: one of
-        // the middles, or `m` where the speed peaks) and ramps it at a constant jerk from
-        // and to rest (see `TableProfile`).
+        // The table ramps `s̈` at a constant jerk from and to rest, runs it linearly in time
+        // over the stretches of its zones (the change over the stretch's time, estimated
+        // from the table's speeds) and linearly in `s` between them (the change over `Δs`
+        // at the stretch's fastest point: one of the middles, or `m` where the speed peaks);
+        // see `TableProfile`. The table as it runs is checked (`jerk_violation`).
+        let middle = |a: f64, b: f64| (0.5 * (a * a + b * b)).sqrt();
+        let (early, late) = (middle(before, at), middle(at, next));
         let span = if m == 0 || m == INTERVALS {
             RAMP_SPAN * STEP / fastest
+        } else if m <= ZONE || m >= INTERVALS - ZONE {
+            table::time_through(early, before_u, after_u)
+                .unwrap_or_else(|| 2.0 * STEP / (early + late))
         } else {
-            let middle = |a: f64, b: f64| (0.5 * (a * a + b * b)).sqrt();
-            STEP / at.max(middle(before, at)).max(middle(at, next))
+            STEP / at.max(early).max(late)
         };
         let accelerations = (before_u.min(after_u), before_u.max(after_u));
         let (up, down) = self.jerk_rows[m].jerk((slowest, fastest), accelerations);
@@ -898,16 +901,16 @@ impl<'a> Problem<'a> {
         (0..rest).fold(0, |best, k| if x[k] > x[best] { k } else { best })
     }
 
-    /// The first grid point where the change of `s̈` exceeds its jerk window, if any.
-    fn jerk_violation(&self, x: &[f64; POINTS], u: &[f64; INTERVALS]) -> Option<usize> {
+    /// The first grid point around which the table's jerk (its ramps and stretches as they
+    /// run, see [`TableProfile`]) exceeds the window its speeds and accelerations leave
+    /// there, if any.
+    fn jerk_violation(&self, table: &TableProfile) -> Option<usize> {
         (0..POINTS).find(|&m| {
-            let before_u = if m > 0 { u[m - 1] } else { 0.0 };
-            let after_u = if m < INTERVALS { u[m] } else { 0.0 };
-            let around = [x[m.saturating_sub(1)], x[m], x[(m + 1).min(INTERVALS)]];
-            let (up, down) = self.window(m, around, before_u, after_u);
-            let change = after_u - before_u;
-            let window = if change > 0.0 { up } else { down };
-            change.abs() > window * (1.0 + JERK_TOLERANCE) + self.slack
+            let stretch = table.jerk_at(m);
+            let (up, down) = self.jerk_rows[m].jerk(stretch.speeds, stretch.accelerations);
+            let (lowest, highest) = stretch.jerk;
+            highest > up * (1.0 + JERK_TOLERANCE) + JERK_FLOOR
+                || -lowest > down * (1.0 + JERK_TOLERANCE) + JERK_FLOOR
         })
     }
 }
