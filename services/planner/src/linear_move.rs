@@ -102,14 +102,13 @@ pub const JERK_SPLITS: [f64; 4] = [0.2, 0.4, 0.6, 0.8];
 pub const CURVATURE_SHARE: f64 = 0.5;
 /// Share of a joint's jerk limit the term `|q'''|·ṡ³` may take at any point in the table
 /// candidate bounded point by point: a lower speed where the path bends fast leaves more
-/// of the jerk budget for changing `s̈`. With the hold on `s̈` by signs, [`topp::THIRD_SHARE`]
-/// (0.5) was faster on the lines of `rc bench motion` (seed 1: 26 instead of 33 over 1.02
-/// against their jerk-limited optimum), but its tables' path acceleration in the first grid
-/// interval, which the positions follow at once while the commanded acceleration ramps up to
-/// it, took a blend from a joint move into such a line over the acceleration limit
-/// (the regression of `random_blended_sequences_keep_the_joint_limits`, J1 12.96 rad/s²
-/// against 12.57).
-pub const LOCAL_THIRD_SHARE: f64 = 0.2;
+/// of the jerk budget for changing `s̈`. As [`topp::THIRD_SHARE`] (0.5): on the lines of
+/// `rc bench motion` (seed 1) 30 instead of 37 over 1.02 against their jerk-limited optimum
+/// at 0.2, none slower. (It was 0.2 while the table's positions followed each grid
+/// interval's constant `s̈` at once and its commanded acceleration ramped up to it: a blend
+/// from a joint move into such a line then exceeded the acceleration limit, J1 12.96 rad/s²
+/// against 12.57, the saved regression of `random_blended_sequences_keep_the_joint_limits`.)
+pub const LOCAL_THIRD_SHARE: f64 = 0.5;
 /// Shares of the acceleration and jerk limits for `|q''|·ṙ²` and `|q'''|·ṙ³` in the table
 /// candidate on the joints' pace ([`path_warp`](crate::path_warp)): there the path bends
 /// less sharply, and more of the budget for these terms was faster on the near-singular
