@@ -62,9 +62,8 @@
 //! made of the result around every grid point: before such a point the speed bound is
 //! lowered a little under the profile and the last pass repeated, at most [`MAX_REPAIRS`]
 //! times. Every pass runs under the profile of the one before, so each profile's duration
-//! (with steps of `s̈` from and to rest) is a lower bound of the table's: a candidate that is
-//! already no faster than the best table so far stops there. All of it works on fixed-size
-//! arrays, without allocation.
+//! is a lower bound of the table's: a candidate that is already no faster than the best
+//! table so far stops there. All of it works on fixed-size arrays, without allocation.
 
 use shared_types::ipc::AXES;
 
@@ -124,11 +123,13 @@ pub fn time(
     if jerk == JerkBound::Off {
         return Ok((table(&x, jerk)?, 1));
     }
-    // Every pass below only lowers the speeds: each profile's duration (on steps of `s̈`
-    // from and to rest, without the ramps of the jerk-limited table) is a lower bound of
-    // the next one's.
+    // Every pass below only lowers the speeds: each profile's duration is a lower bound of
+    // the next one's (the ramps from and to rest of a lower profile take longer, too: its
+    // accelerations at the ends are no larger). On steps of `s̈` from and to rest instead,
+    // the bound was looser by the ramps, and 30 % more of the candidates of the 100 lines of
+    // `rc bench motion` ran their last pass, the same tables won.
     let may_be_faster = |x: &[f64; POINTS]| {
-        if table(x, JerkBound::Off).is_ok_and(|t| t.duration() >= longest) {
+        if table(x, jerk).is_ok_and(|t| t.duration() >= longest) {
             return Err(ToppError::NotFaster(longest));
         }
         Ok(())
