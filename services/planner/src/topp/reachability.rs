@@ -748,8 +748,6 @@ impl<'a> Problem<'a> {
         if m < INTERVALS {
             (slowest, fastest) = (slowest.min(next), fastest.max(next));
         }
-        // The table runs `s̈` linearly in `s` over `Δs` (its jerk `Δu·ṡ/Δs`), and at the
-        // ends ramps it at a constant jerk from and to rest (see `TableProfile`).
         // The table ramps `s̈` at a constant jerk from and to rest, runs it linearly in time
         // over the stretches of its zones (the change over the stretch's time, estimated
         // from the table's speeds) and linearly in `s` between them (the change over `Δs`
