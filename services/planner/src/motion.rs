@@ -81,9 +81,9 @@ impl Path {
     }
 
     /// The rates of the joints and the TCP along the path (and the TCP's acceleration across
-    /// it on an arc) on the unscaled profile at time `tau`, next to `previous`; the rates of
-    /// velocity and acceleration are their changes over the following `step` s (the
-    /// preceding one at the profile's end, where the profile stands).
+    /// it on an arc) on the unscaled profile at time `tau`, next to `previous`; the jerk is
+    /// the change of the acceleration over the following `step` s (the preceding one at the
+    /// profile's end, where the profile stands).
     pub fn table_rates(&self, tau: f64, step: f64, previous: &[f64; AXES]) -> TableRates {
         let profile = &self.timing().profile;
         // |p'| and |p''| of the TCP's path at s.
@@ -109,13 +109,9 @@ impl Path {
         } else {
             -step
         };
-        let (velocity_next, acceleration_next, _) = at(tau + step);
-        let rate = |now: &[f64; COORDINATES], next: &[f64; COORDINATES]| {
-            core::array::from_fn(|i| (next[i] - now[i]) / step)
-        };
+        let (_, acceleration_next, _) = at(tau + step);
         TableRates {
-            velocity_rate: rate(&velocity, &velocity_next),
-            jerk: rate(&acceleration, &acceleration_next),
+            jerk: core::array::from_fn(|i| (acceleration_next[i] - acceleration[i]) / step),
             velocity,
             acceleration,
             normal,

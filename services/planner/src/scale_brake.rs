@@ -13,21 +13,21 @@
 //!
 //! - `q̇ = σ·q̇ₜ`,
 //! - `q̈ = σ²·q̈ₜ + σ̇·q̇ₜ`,
-//! - `q⃛ = σ³·q⃛ₜ + σ·σ̇·(2·q̈ₜ + q̈ᵥ) + σ̈·q̇ₜ`, with `q̈ᵥ = dq̇ₜ/dτ` (equal to `q̈ₜ` where
-//!   the profile's `s̈` is the derivative of its `ṡ`; a table blends its `s̈`).
+//! - `q⃛ = σ³·q⃛ₜ + 3·σ·σ̇·q̈ₜ + σ̈·q̇ₜ` (every profile's `q̈ₜ` is the derivative of its
+//!   `q̇ₜ`: a table's positions follow its commanded acceleration).
 //!
 //! Braking (`σ̇ = −d ≤ 0`), `|q̈| ≤ A` holds for `d ≤ (A + sgn(q̇ₜ)·σ²·q̈ₜ)/|q̇ₜ|` and
-//! `|q⃛| ≤ J` for `|σ̈| ≤ (J − |σ³·q⃛ₜ + σ·σ̇·(2·q̈ₜ + q̈ᵥ)|)/|q̇ₜ|`. Every tick takes the tightest
+//! `|q⃛| ≤ J` for `|σ̈| ≤ (J − |σ³·q⃛ₜ + 3·σ·σ̇·q̈ₜ|)/|q̇ₜ|`. Every tick takes the tightest
 //! of these bounds over the coordinates (each limit times [`MARGIN`], for what changes within
 //! the tick) as the deceleration and jerk limits of a [`PathBrake`] of σ: its jerk is
 //! bang-bang, so σ and σ̇ reach 0 together where the limits allow it.
 //!
-//! The cross term `σ·σ̇·(2·q̈ₜ + q̈ᵥ)` is the jerk of taking the table's acceleration away: as
+//! The cross term `3·σ·σ̇·q̈ₜ` is the jerk of taking the table's acceleration away: as
 //! σ falls, `σ²·q̈ₜ` falls with it. Where the table slows a coordinate down, that jerk has the
 //! sign only a growing deceleration can answer (`σ̈·q̇ₜ` against it), and a larger deceleration
 //! makes it larger still: unbounded, a stop could run away into σ = 0 at full deceleration,
 //! a step of the acceleration. So the deceleration is bounded as well, by
-//! `|σ·σ̇·(2·q̈ₜ + q̈ᵥ)| ≤` [`CROSS_SHARE`]`·J`: the rest of the jerk is for the table's own
+//! `|3·σ·σ̇·q̈ₜ| ≤` [`CROSS_SHARE`]`·J`: the rest of the jerk is for the table's own
 //! `σ³·q⃛ₜ` and for σ̈, which can then bring the deceleration back.
 //!
 //! Where the table's own jerk and the cross term leave room only for taking the deceleration
@@ -50,7 +50,7 @@ pub const COORDINATES: usize = shared_types::ipc::AXES + 1;
 /// rates within a tick.
 pub const MARGIN: f64 = 0.9;
 /// Share of a coordinate's jerk limit (after [`MARGIN`]) the stop's cross term
-/// `σ·σ̇·(2·q̈ₜ + q̈ᵥ)` may take; it bounds the deceleration (see the module documentation).
+/// `3·σ·σ̇·q̈ₜ` may take; it bounds the deceleration (see the module documentation).
 pub const CROSS_SHARE: f64 = 0.7;
 /// Share of the jerk left at `σ = 0` a release of σ̇ plans with: the rest is for what the
 /// table's share still takes while σ falls to 0.
@@ -83,9 +83,6 @@ pub struct TableRates {
     pub velocity: [f64; COORDINATES],
     /// `q̈ₜ` (rad/s², m/s²).
     pub acceleration: [f64; COORDINATES],
-    /// `d(q̇ₜ)/dτ`: equal to `q̈ₜ` for a profile whose commanded `s̈` is the derivative of
-    /// its `ṡ`; a table blends its `s̈` between the grid points, so the two differ.
-    pub velocity_rate: [f64; COORDINATES],
     /// `q⃛ₜ = d(q̈ₜ)/dτ` (rad/s³, m/s³).
     pub jerk: [f64; COORDINATES],
     /// The acceleration across the path that takes its share of a coordinate's limit (the
@@ -207,24 +204,20 @@ fn bounds(
         release_jerk: MAX_SCALE_JERK,
     };
     for i in 0..COORDINATES {
-        let (v, a, a_v) = (
-            table.velocity[i],
-            table.acceleration[i],
-            table.velocity_rate[i],
-        );
-        let used = sigma.powi(3) * table.jerk[i] + sigma * sigma_rate * (2.0 * a + a_v);
-        // To first order over the tick: σ̈'s coefficient q̇ₜ grows by σ·dt·(q̈ₜ + q̈ᵥ) (its
-        // own change and that of the cross term), and the cross term by σ̇²·dt·(2q̈ₜ + q̈ᵥ).
+        let (v, a) = (table.velocity[i], table.acceleration[i]);
+        let used = sigma.powi(3) * table.jerk[i] + 3.0 * sigma * sigma_rate * a;
+        // To first order over the tick: σ̈'s coefficient q̇ₜ grows by 2·σ·dt·q̈ₜ (its own
+        // change and that of the cross term), and the cross term by 3·σ̇²·dt·q̈ₜ.
         let end = (
-            v + dt * sigma * (a + a_v),
-            used + dt * sigma_rate * sigma_rate * (2.0 * a + a_v),
+            v + 2.0 * dt * sigma * a,
+            used + 3.0 * dt * sigma_rate * sigma_rate * a,
         );
         let acceleration_limit = MARGIN * limits.acceleration[i] - sigma * sigma * table.normal[i];
         let j = MARGIN * limits.jerk[i];
         for (coefficient, used) in [(v, used), end] {
             bounds.keep(coefficient, a, used, sigma, acceleration_limit, j);
         }
-        let cross = sigma * (2.0 * a + a_v).abs();
+        let cross = 3.0 * sigma * a.abs();
         if cross > MOVING {
             bounds.deceleration = bounds.deceleration.min(CROSS_SHARE * j / cross);
         }
@@ -298,7 +291,6 @@ mod tests {
         TableRates {
             velocity: [velocity; COORDINATES],
             acceleration: [0.0; COORDINATES],
-            velocity_rate: [0.0; COORDINATES],
             jerk: [0.0; COORDINATES],
             normal: [0.0; COORDINATES],
         }
@@ -392,11 +384,10 @@ mod tests {
     fn the_jerk_of_taking_the_tables_acceleration_away_bounds_the_deceleration() {
         let mut table = cruise(1.0);
         table.acceleration = [2.0; COORDINATES];
-        table.velocity_rate = [2.0; COORDINATES];
         // The acceleration limit leaves 90 + 2 per unit of q̇ₜ: the cross term binds.
         let l = limits(100.0, 5.0);
         let at = |sigma: f64| bounds(&table, &l, sigma, 0.0, DT).deceleration;
-        let expected = CROSS_SHARE * MARGIN * 5.0 / (2.0 * 2.0 + 2.0);
+        let expected = CROSS_SHARE * MARGIN * 5.0 / (3.0 * 2.0);
         assert!((at(1.0) - expected).abs() < 1e-12, "{}", at(1.0));
         // σ·σ̇ is what is bounded: at half the time scale, twice the deceleration.
         assert!((at(0.5) - 2.0 * expected).abs() < 1e-12, "{}", at(0.5));
