@@ -140,7 +140,14 @@ fn the_planner_process_drives_a_move_to_its_target_and_shuts_down_promptly() {
         outcome.events,
         vec![(1, state::BUFFERED), (1, state::ACTIVE), (1, state::DONE)]
     );
-    assert!(outcome.shutdown < Duration::from_millis(200));
+    // A liveness bound (a planner that misses the flag or waits on a thread that never
+    // ends), not a speed target: about 25 ms here (the 20 ms wake-up timeout), but under the
+    // parallel tests of a loaded 2-core CI machine 200 ms was once missed.
+    assert!(
+        outcome.shutdown < Duration::from_secs(2),
+        "{:?}",
+        outcome.shutdown
+    );
 }
 
 #[test]
