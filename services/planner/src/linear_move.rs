@@ -100,15 +100,6 @@ pub const SPEED_STEPS: usize = 8;
 pub const JERK_SPLITS: [f64; 4] = [0.2, 0.4, 0.6, 0.8];
 /// Share of a joint's acceleration limit the path curvature term `q''·ṡ²` may take.
 pub const CURVATURE_SHARE: f64 = 0.5;
-/// Share of a joint's jerk limit the term `|q'''|·ṡ³` may take at any point in the table
-/// candidate bounded point by point: a lower speed where the path bends fast leaves more
-/// of the jerk budget for changing `s̈`. As [`topp::THIRD_SHARE`] (0.5): on the lines of
-/// `rc bench motion` (seed 1) 30 instead of 37 over 1.02 against their jerk-limited optimum
-/// at 0.2, none slower. (It was 0.2 while the table's positions followed each grid
-/// interval's constant `s̈` at once and its commanded acceleration ramped up to it: a blend
-/// from a joint move into such a line then exceeded the acceleration limit, J1 12.96 rad/s²
-/// against 12.57, the saved regression of `random_blended_sequences_keep_the_joint_limits`.)
-pub const LOCAL_THIRD_SHARE: f64 = 0.5;
 /// Shares of the acceleration and jerk limits for `|q''|·ṙ²` and `|q'''|·ṙ³` in the table
 /// candidate on the joints' pace ([`path_warp`](crate::path_warp)): there the path bends
 /// less sharply, and more of the budget for these terms was faster on the near-singular
@@ -885,12 +876,16 @@ fn joint_pace(samples: &PathSamples, arm: &Arm<'_>) -> Option<(PathWarp, f64)> {
 /// fast (it bounds `3·q''·ṡ·s̈` at each stage's highest speed, so a lower speed bound may
 /// give a faster table): the curvature term bounded at every point alone (`|q''|·ṡ² ≤
 /// CURVATURE_SHARE·a`), which does not let one point near a singular set slow the whole path
-/// down and also holds `|q'''|·ṡ³` to [`LOCAL_THIRD_SHARE`] of the jerk limit at every point,
-/// and the speed capped everywhere where constant stop bounds stop to exist
-/// ([`JointBounds::stop_speed`], the worst point of the path). The first is the faster on
-/// most lines (`rc bench motion --problems 60`, seed 1: 438 of 510 timings), so it is timed
-/// first: the second then often ends at a lower bound of its duration, before its
-/// jerk-limited passes.
+/// down (both hold `|q'''|·ṡ³` to [`topp::THIRD_SHARE`] of the jerk limit at every point:
+/// with 0.2 for the first, 37 instead of 30 lines of `rc bench motion`, seed 1, missed 1.02
+/// against their jerk-limited optimum; it was 0.2 while the table's positions followed each
+/// grid interval's constant `s̈` at once, with which 0.5 took a blend from a joint move into
+/// such a line over the acceleration limit, the saved regression of
+/// `random_blended_sequences_keep_the_joint_limits`), and the speed capped everywhere where
+/// constant stop bounds stop to exist ([`JointBounds::stop_speed`], the worst point of the
+/// path). The first is the faster on most lines (`rc bench motion --problems 60`, seed 1:
+/// 438 of 510 timings), so it is timed first: the second then often ends at a lower bound
+/// of its duration, before its jerk-limited passes.
 fn table_limits(
     command: &MotionCommand,
     survey: &Survey,
@@ -933,7 +928,6 @@ fn table_limits(
             Some(ToppLimits {
                 speed_cap: cartesian.velocity,
                 curvature_share: CURVATURE_SHARE,
-                third_share: LOCAL_THIRD_SHARE,
                 ..limits
             }),
             Some(limits),

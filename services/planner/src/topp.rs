@@ -85,8 +85,8 @@ const MOVING: f64 = 1e-12;
 /// Share of the jerk budget at rest a point keeps when the estimates leave none.
 const JERK_FLOOR: f64 = 0.05;
 /// Share of a joint's jerk limit the term `q'''·ṡ³` may take at most in the constant stop
-/// bounds of [`linear_move`](crate::linear_move) and in the table capped by them (each
-/// candidate has its own: [`ToppLimits::third_share`]).
+/// bounds of [`linear_move`](crate::linear_move) and in its tables by the path position
+/// (those on the joints' pace have their own: [`ToppLimits::third_share`]).
 pub const THIRD_SHARE: f64 = 0.5;
 /// Right-hand side of a jerk row that cannot bind: the scaled `b` lies in [0, 1].
 const UNBOUND: f64 = 4.0;

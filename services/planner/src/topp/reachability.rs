@@ -145,8 +145,7 @@ pub fn time(
     // right but for the end of the path.
     forward.lower_bound(&x, INTERVALS);
     forward.controllable(&mut sets)?;
-    let mut u = [0.0; INTERVALS];
-    forward.jerk_greedy(&sets, &mut x, &mut u);
+    forward.jerk_greedy(&sets, &mut x);
     may_be_faster(&x)?;
     // From the end under that profile (up to where it is of use): right but for the start,
     // and it meets the forward profile where that one is jerk-limited already.
@@ -155,13 +154,13 @@ pub fn time(
     problem.lower_bound(&x, trusted);
     let reversed = problem.reversed();
     reversed.controllable(&mut sets)?;
-    reversed.jerk_greedy(&sets, &mut x, &mut u);
+    reversed.jerk_greedy(&sets, &mut x);
     may_be_faster(&x)?;
     x.reverse();
     problem.lower_bound(&x, INTERVALS);
     for pass in 1..=MAX_REPAIRS + 1 {
         problem.controllable(&mut sets)?;
-        problem.jerk_greedy(&sets, &mut x, &mut u);
+        problem.jerk_greedy(&sets, &mut x);
         let table = table(&x, jerk)?;
         let Some(m) = problem.jerk_violation(&table) else {
             return Ok((table, pass + 3));
@@ -861,9 +860,8 @@ impl<'a> Problem<'a> {
         at <= self.slack
     }
 
-    /// The jerk-limited forward pass (see the module documentation): speeds² `x` and path
-    /// accelerations `u`.
-    fn jerk_greedy(&self, sets: &Sets, x: &mut [f64; POINTS], u: &mut [f64; INTERVALS]) {
+    /// The jerk-limited forward pass (see the module documentation): speeds² `x`.
+    fn jerk_greedy(&self, sets: &Sets, x: &mut [f64; POINTS]) {
         x[0] = 0.0;
         let (mut before, mut before_u) = (0.0, 0.0);
         for k in 0..INTERVALS {
@@ -889,8 +887,7 @@ impl<'a> Problem<'a> {
             x[k + 1] = (x[k] + 2.0 * STEP * chosen)
                 .max(sets.lo[k + 1])
                 .min(sets.hi[k + 1]);
-            u[k] = (x[k + 1] - x[k]) / (2.0 * STEP);
-            (before, before_u) = (x[k], u[k]);
+            (before, before_u) = (x[k], (x[k + 1] - x[k]) / (2.0 * STEP));
         }
     }
 

@@ -227,9 +227,14 @@ impl TimeStretch {
         (time.is_finite() && time > 0.0 && stretch.speed_range().0 > 0.0).then_some(stretch)
     }
 
+    /// Its constant jerk `s⃛`.
+    fn jerk(&self) -> f64 {
+        (self.to - self.from) / self.time
+    }
+
     /// `(x, ẋ, ẍ)` a time `tau` after its start.
     fn state(&self, tau: f64) -> (f64, f64, f64) {
-        let jerk = (self.to - self.from) / self.time;
+        let jerk = self.jerk();
         (
             tau * (self.start_speed + tau * (0.5 * self.from + tau * jerk / 6.0)),
             self.start_speed + tau * (self.from + 0.5 * jerk * tau),
@@ -369,7 +374,7 @@ impl TableProfile {
         let (from, to) = (self.acceleration(m - 1), self.acceleration(m));
         let (jerk, speeds) = if self.in_time(m) {
             let stretch = self.time_stretch(m);
-            let jerk = (to - from) / stretch.time;
+            let jerk = stretch.jerk();
             ((jerk, jerk), stretch.speed_range())
         } else {
             self.space_stretch(m).jerk()
