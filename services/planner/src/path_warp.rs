@@ -16,6 +16,14 @@
 //! limited optimum of the magnitude bounds 1.51 s by `s` and 0.97 s by `r` on its worst
 //! line, against 0.95 s for the exact jerk rows.
 //!
+//! The grid the path is timed on ([`INTERVALS`] equal steps of the parameter) follows the
+//! joints too. By `s` such a stretch lies within a few intervals, over which the grid rows
+//! hold the velocity limit with the largest `|q'|` around and the acceleration limit at both
+//! ends of each, so the timing loses to the grid's coarseness even without the jerk bound:
+//! on toppra's constraints alone the bench's lines (seed 1) took up to 1.043 times toppra's
+//! duration on 4000 grid points by `s`, at most 1.009 times with the table on the joints'
+//! pace.
+//!
 //! # Shape
 //!
 //! The density `g = dr/ds` (up to a constant) is given at the grid points `s_k = k/N` of
