@@ -14,10 +14,21 @@
 //! B as the running move.
 //!
 //! A stop or an interrupt during the overlap brakes on the blended path: σ goes to 0 at the
-//! blend's stop rate, which keeps every joint within its velocity and acceleration limits
-//! (like an override ramp, the acceleration changes in steps). If A ends before the arm
+//! blend's stop rate, which keeps every joint within its velocity and acceleration limits,
+//! the rate changing as gradually as an override ramp's. If A ends before the arm
 //! stands, B alone brakes on its path. An interrupted B goes back to its sequence and, on
 //! continue, is planned anew from where the arm stopped (A is done already).
+//!
+//! # Override
+//!
+//! A change of the override is a pure re-timing: the profiles' time τ advances σ seconds
+//! per second, and σ approaches the override with `|σ̇|` at most the move's override rate
+//! (which its acceleration reserve pays for) and `|σ̈|` at most
+//! [`Dynamics::override_acceleration`], braking its rate to arrive at rest. The commanded
+//! rates are `q̇ = σ·q̇ₜ`, `q̈ = σ²·q̈ₜ + σ̇·q̇ₜ`, `q⃛ = σ³·q⃛ₜ + 3·σ·σ̇·q̈ₜ + σ̈·q̇ₜ`: a ramp adds
+//! at most [`OVERRIDE_JERK_SHARE`] of every jerk limit through `σ̈·q̇ₜ`, and the cross term;
+//! a guarantee within the limit would need a share of the jerk held back in every plan, as
+//! the acceleration is.
 //!
 //! # WaitTime
 //!
@@ -243,6 +254,28 @@ pub struct Dynamics {
     pub override_reserve: f64,
 }
 
+/// Share of every joint's and the TCP's jerk limit that the change of an override ramp's
+/// rate takes at most (`σ̈·q̇` in `q⃛ = σ³·q⃛ₜ + 3·σ·σ̇·q̈ₜ + σ̈·q̇ₜ`). With a step of σ̇ instead,
+/// a change of the override took the joints' acceleration by `σ̇·q̇ₜ` (up to the override
+/// reserve's share of the limit) in one tick: 40 times the jerk limit of the JAKA Zu 7.
+pub const OVERRIDE_JERK_SHARE: f64 = 0.5;
+/// Distance of σ from its target and rate left, relative to an override ramp's change of
+/// rate per tick, below which σ stands on the target.
+const SETTLED: f64 = 1e-6;
+
+impl Dynamics {
+    /// Largest `|σ̈|` (1/s²) of an override ramp: no coordinate moves faster than its
+    /// velocity limit, so `|σ̈·q̇ₜ|` stays within [`OVERRIDE_JERK_SHARE`] of every jerk
+    /// limit.
+    pub fn override_acceleration(&self) -> f64 {
+        let (l, tcp) = (&self.limits, &self.tcp);
+        let slowest = (0..AXES).fold(tcp.jerk / tcp.velocity, |r, i| {
+            r.min(l.jerk[i] / l.velocity[i])
+        });
+        OVERRIDE_JERK_SHARE * slowest
+    }
+}
+
 /// The commanded joint motion and the time scaling of the override.
 #[derive(Debug, Clone, Copy)]
 pub struct Motion {
@@ -461,7 +494,7 @@ impl Motion {
                 } else {
                     (override_target, blend.overlap.override_rate)
                 };
-                let step = self.retime(target, rate, dt);
+                let step = self.retime(target, rate, dynamics.override_acceleration(), dt);
                 blend.tau += step;
                 blend.outgoing_tau += step;
                 self.overlap(blend);
@@ -551,15 +584,56 @@ impl Motion {
         self.path_rate = (0.0, 0.0);
     }
 
-    /// σ approaches `target` no faster than `rate` (1/s) over a tick of `dt`; returns how
-    /// far the profiles' time τ advances in it.
-    fn retime(&mut self, target: f64, rate: f64, dt: f64) -> f64 {
-        let max_change = rate * dt;
-        let sigma = self.sigma + (target - self.sigma).clamp(-max_change, max_change);
-        self.sigma_rate = (sigma - self.sigma) / dt;
-        // σ is linear within the tick, so the trapezoid is the exact integral.
-        let step = 0.5 * (self.sigma + sigma) * dt;
-        self.sigma = sigma;
+    /// σ approaches `target` over a tick of `dt` with `|σ̇| ≤ rate` (1/s) and `|σ̈| ≤
+    /// acceleration` (1/s²), braking its rate in time to arrive at rest; returns how far the
+    /// profiles' time τ advances in it. σ stays within [0, 1] and passes a target only where
+    /// it was set too late to brake for.
+    fn retime(&mut self, target: f64, rate: f64, acceleration: f64, dt: f64) -> f64 {
+        let (sigma, sigma_rate) = (self.sigma, self.sigma_rate);
+        let gap = target - sigma;
+        let toward = if gap < 0.0 { -1.0 } else { 1.0 };
+        // The fastest rate towards the target at the end of the tick from which braking at
+        // `acceleration` (in the same trapezoid steps) still stops on it:
+        // `(σ̇ + v)/2·dt + v²/(2·acceleration) ≤ |gap|`; none where even that overshoots.
+        let half = 0.5 * dt;
+        let room = half * half + 2.0 * (gap.abs() - toward * sigma_rate * half) / acceleration;
+        let arriving = if room >= 0.0 {
+            acceleration * (room.sqrt() - half)
+        } else {
+            f64::NEG_INFINITY
+        };
+        let change = acceleration * dt;
+        // Near the target: this tick's rate, then 0 in the next, ends on it (braking on the
+        // bound alone, the rate would flip about it without getting there).
+        let finishing = gap.abs() / dt - 0.5 * toward * sigma_rate;
+        let wanted =
+            if (finishing - toward * sigma_rate).abs() <= change && finishing.abs() <= change {
+                toward * finishing
+            } else {
+                toward * rate.min(arriving)
+            };
+        let mut next_rate = sigma_rate + (wanted - sigma_rate).clamp(-change, change);
+        // σ̈ is constant within the tick.
+        let mut step = dt * (sigma + dt * (2.0 * sigma_rate + next_rate) / 6.0);
+        let mut next = sigma + 0.5 * (sigma_rate + next_rate) * dt;
+        // The last step may end a little past the target or, by rounding, short of rest on
+        // it: it stops on the target instead, within one tick's change of σ̇. (Faster, it
+        // passes the target only where a new one came too late to brake for: it then turns
+        // back as it can.)
+        let passed = (next - target) * gap > 0.0 && next_rate.abs() <= change;
+        let settled =
+            (next - target).abs() <= SETTLED * change && next_rate.abs() <= SETTLED * change;
+        if passed || settled || !(0.0..=1.0f64.max(target)).contains(&next) {
+            next = if passed || settled {
+                target
+            } else {
+                next.clamp(0.0, 1.0f64.max(target))
+            };
+            next_rate = 0.0;
+            step = 0.5 * (sigma + next) * dt;
+        }
+        self.sigma = next;
+        self.sigma_rate = next_rate;
         step
     }
 
@@ -572,7 +646,8 @@ impl Motion {
         report: &mut impl FnMut(u32, u8, u16),
     ) {
         let rate = running.plan.timing().override_rate;
-        running.tau += self.retime(tick.override_target, rate, tick.dt);
+        let acceleration = tick.dynamics.override_acceleration();
+        running.tau += self.retime(tick.override_target, rate, acceleration, tick.dt);
         if let Handover::Blend(blend) = running.handover
             && running.tau >= blend.overlap.start
         {
@@ -705,5 +780,83 @@ impl Motion {
             self.holds.primary = true;
         }
         report(active.job, state::DONE, 0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DT: f64 = 1e-3;
+
+    /// An override ramp changes σ̇ by at most its acceleration per second, never faster
+    /// than its rate, never past the target it heads for and never out of [0, 1]; it
+    /// arrives on the target at rest, as soon as the rate and the acceleration allow. Down
+    /// to 0.3, back up to 1 before arriving, down to 0 and up to 1 again. (A step of σ̇
+    /// moved the joints' acceleration by up to the override reserve's share of its limit in
+    /// one tick: 80 times the jerk limit of the JAKA Zu 7.)
+    #[test]
+    fn override_ramps_change_their_rate_gradually_and_stop_on_the_target() {
+        let (rate, acceleration) = (0.8, 10.0);
+        let mut m = Motion::at_rest([0.0; AXES], 1.0);
+        for (target, ticks) in [(0.3, 400), (1.0, 2000), (0.0, 2000), (1.0, 2000)] {
+            let (from, from_rest) = (m.sigma, m.sigma_rate == 0.0);
+            let mut arrived = None;
+            for tick in 0..ticks {
+                let (sigma, sigma_rate) = (m.sigma, m.sigma_rate);
+                let step = m.retime(target, rate, acceleration, DT);
+                assert!(m.sigma_rate.abs() <= rate * (1.0 + 1e-12), "{m:?}");
+                let change = (m.sigma_rate - sigma_rate).abs();
+                assert!(
+                    change <= acceleration * DT * (1.0 + 1e-9),
+                    "{change} at {m:?}"
+                );
+                assert!((0.0..=1.0).contains(&m.sigma), "{m:?}");
+                assert!(
+                    (m.sigma - target) * (from - target) >= 0.0,
+                    "past {target}: {m:?}"
+                );
+                let (low, high) = (sigma.min(m.sigma), sigma.max(m.sigma));
+                assert!(step >= low * DT - 1e-15 && step <= high * DT + 1e-15);
+                if arrived.is_none() && m.sigma == target && m.sigma_rate == 0.0 {
+                    arrived = Some(tick + 1);
+                }
+            }
+            if target == 0.3 {
+                assert!(arrived.is_none(), "turned back before 0.3");
+                continue;
+            }
+            let arrived = arrived.unwrap_or_else(|| panic!("not at {target}: {m:?}"));
+            if from_rest {
+                // From rest: `|Δσ|/rate + rate/acceleration`, within a few ticks.
+                let shortest = (target - from).abs() / rate + rate / acceleration;
+                assert!(
+                    arrived as f64 * DT <= shortest + 3.0 * DT,
+                    "{arrived} ticks"
+                );
+            }
+        }
+    }
+
+    /// A target set too late to brake for (σ falling at the full rate just above it) is
+    /// passed and reached from the other side, the rate changing as gradually as ever.
+    #[test]
+    fn a_target_too_near_to_brake_for_is_passed_and_reached_from_the_other_side() {
+        let (rate, acceleration) = (0.8, 10.0);
+        let mut m = Motion::at_rest([0.0; AXES], 1.0);
+        while m.sigma > 0.5 {
+            m.retime(0.0, rate, acceleration, DT);
+        }
+        assert_eq!(m.sigma_rate, -rate);
+        let target = m.sigma - 0.001;
+        let mut lowest = m.sigma;
+        for _ in 0..1000 {
+            let before = m.sigma_rate;
+            m.retime(target, rate, acceleration, DT);
+            assert!((m.sigma_rate - before).abs() <= acceleration * DT * (1.0 + 1e-9));
+            lowest = lowest.min(m.sigma);
+        }
+        assert!(lowest < target - 0.02, "{lowest}");
+        assert_eq!((m.sigma, m.sigma_rate), (target, 0.0));
     }
 }

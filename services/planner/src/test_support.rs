@@ -44,13 +44,20 @@ pub fn assert_within_limits(points: &[JointPoint], limits: &JointLimitsRad, dt: 
 
 /// The jerk of the commanded accelerations (their change over one tick of `dt` s) and of the
 /// positions (their third differences: what a servo that follows position setpoints sees)
-/// keeps the joint jerk limits: true for moves and stops, not for override ramps.
+/// keeps the joint jerk limits: true for moves and stops; override ramps add to it (see
+/// [`assert_jerk_within`]).
 pub fn assert_jerk_within_limits(points: &[JointPoint], limits: &JointLimitsRad, dt: f64) {
+    assert_jerk_within(points, limits, dt, 1.0);
+}
+
+/// The jerk of the commanded accelerations and of the positions (as
+/// [`assert_jerk_within_limits`]) stays within `factor` times the joint jerk limits.
+pub fn assert_jerk_within(points: &[JointPoint], limits: &JointLimitsRad, dt: f64, factor: f64) {
     for w in points.windows(2) {
         for i in 0..AXES {
             let jerk = (w[1].qdd[i] - w[0].qdd[i]).abs() / dt;
             assert!(
-                jerk <= limits.jerk[i] * (1.0 + SLACK),
+                jerk <= factor * limits.jerk[i] * (1.0 + SLACK),
                 "jerk {jerk} joint {i}"
             );
         }
@@ -62,7 +69,7 @@ pub fn assert_jerk_within_limits(points: &[JointPoint], limits: &JointLimitsRad,
             // Rounding of positions near 1 rad and of their path: a few 1e-16 rad over dt³
             // (1e-9 s³ at 1 ms), with room to spare.
             assert!(
-                jerk <= limits.jerk[i] * (1.0 + SLACK) + 1e-3,
+                jerk <= factor * limits.jerk[i] * (1.0 + SLACK) + 1e-3,
                 "jerk of the positions {jerk} joint {i} at point {n}"
             );
         }

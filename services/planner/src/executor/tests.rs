@@ -4,7 +4,7 @@ use super::*;
 use shared_types::config::JointLimitsRad;
 use shared_types::ipc::{JOB_EVENTS, JobEvent};
 
-use crate::test_support::{assert_jerk_within_limits, assert_within_limits};
+use crate::test_support::{assert_jerk_within, assert_jerk_within_limits, assert_within_limits};
 
 const DT: f64 = 1e-3;
 const ISSUER: u64 = 77;
@@ -1229,6 +1229,38 @@ mod linear {
         rig.check_limits();
         assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
         assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+    }
+
+    /// Override changes (to 30 % and back) at several points of a joint move and of a line
+    /// timed by its table: the time scale's rate changes gradually, so the jerk stays within
+    /// the move's own plus [`OVERRIDE_JERK_SHARE`](crate::motion::OVERRIDE_JERK_SHARE) of the
+    /// limit (measured: at most 1.35 times the limit, the cross term `3·σ·σ̇·q̈ₜ` included).
+    /// With a step of the rate it was up to 80 times the limit (40 in the positions).
+    #[test]
+    fn override_changes_keep_the_jerk_near_its_limit() {
+        let within = 1.0 + crate::motion::OVERRIDE_JERK_SHARE;
+        for (line, at) in [(false, 5.0), (false, 30.0), (false, 80.0), (true, 15.0)] {
+            let mut rig = Rig::new();
+            let c = if line {
+                rig.line_by(1, [0.3, -0.3, -0.2], TURN)
+            } else {
+                rig.move_to(1, target_a())
+            };
+            rig.step(&[c]);
+            assert!(
+                !line || runs_on_table(&rig),
+                "the line is not timed by its table"
+            );
+            rig.run_until(20_000, |r| r.executor.status().active_progress > at);
+            rig.set_override(2, 0.3);
+            for _ in 0..300 {
+                rig.step(&[]);
+            }
+            rig.set_override(3, 1.0);
+            rig.run_until(20_000, |r| r.is_final(1));
+            rig.check_limits();
+            assert_jerk_within(&rig.trace, &rig.limits, DT, within);
+        }
     }
 
     /// GroupStop all along lines on which the stop of the time scale, unbounded by its
