@@ -35,8 +35,9 @@
 //! `[−down_m, up_m]`: per joint
 //! `(j_i ∓ σ_i·q'''_i·ṡ³ ∓ 3·σ_i·q''_i·ṡ·s̈)/|q'_i|`, `σ_i` the sign of `q'_i`, over the
 //! ranges of `ṡ`, `s̈`, `q''` and `q'''` around `m` and the largest `|q'|` there (where
-//! `q'_i` changes sign around `m`, or for the TCP, by the terms' magnitudes either way; see
-//! `JerkRows`), so the change of `u` at `m` has a window. To keep the budget positive the
+//! `q'_i` changes sign around `m`, the smaller of the two with `σ_i = 1`, as `q'_i·s⃛` takes
+//! either sign; for the TCP by the terms' magnitudes either way; see `JerkRows`), so the
+//! change of `u` at `m` has a window. To keep the budget positive the
 //! speed is capped where `|q'''|·ṡ³` would take more than the share
 //! [`ToppLimits::third_share`] of it, and `s̈` is held where the window stays open both ways
 //! at every speed up to the stage's speed bound (the largest speed around the stage): per
@@ -382,12 +383,15 @@ struct Point {
 /// the sign of `q'`, `|q⃛| ≤ j` is `|σ·q'''/|q'|·ṡ³ + 3·σ·q''/|q'|·ṡ·s̈ + s⃛| ≤ j/|q'|`, so
 /// `s⃛` may rise by `budget − max(third·ṡ³) − max(cross·ṡ·s̈)` and fall by
 /// `budget + min(third·ṡ³) + min(cross·ṡ·s̈)`, `third` and `cross` the ranges of
-/// `σ·q'''/|q'|` and `3·σ·q''/|q'|` around the point. Both terms count with their sign where
-/// `q'` keeps its sign around the point (braking where `q''` and `q'` have the same sign,
-/// there is more room to ease off than to brake harder): `q''` as sampled, `q'''` as the
-/// differences of `q''` over the intervals around, widened by what the sampled `|q'''|`
-/// (which may come from finer steps) exceeds them by. Elsewhere, and for the TCP (whose
-/// derivatives are norms), by their magnitudes either way.
+/// `σ·q'''/|q'|` and `3·σ·q''/|q'|` around the point. Both terms count with their sign
+/// (braking where `q''` and `q'` have the same sign, there is more room to ease off than to
+/// brake harder): `q''` as sampled, `q'''` as the differences of `q''` over the intervals
+/// around, widened by what the sampled `|q'''|` (which may come from finer steps) exceeds
+/// them by. Where `q'` changes sign around the point, `σ = 1` and the window is the room the
+/// larger of `±(q'''·ṡ³ + 3·q''·ṡ·s̈)` leaves, both ways (`q'·s⃛` takes either sign there);
+/// still with the terms' signs, so braking where `q''` and `q'''` have the same sign the
+/// one takes back what the other spends. For the TCP (whose derivatives are norms) by their
+/// magnitudes either way.
 #[derive(Clone, Copy)]
 struct JerkRows {
     budget: [f64; AXES + 1],
@@ -395,6 +399,10 @@ struct JerkRows {
     third: [(f64, f64); AXES + 1],
     /// `(lowest, highest)` of `3·σ·q''/|q'|` around the point.
     cross: [(f64, f64); AXES + 1],
+    /// Rows of a joint whose `q'` changes sign around the point: `σ = 1`, and as `q'·s⃛`
+    /// takes either sign there, `s⃛` may rise and fall only by what the larger of the two
+    /// leaves.
+    symmetric: [bool; AXES + 1],
     len: usize,
 }
 
@@ -404,43 +412,45 @@ impl JerkRows {
             budget: [0.0; AXES + 1],
             third: [(0.0, 0.0); AXES + 1],
             cross: [(0.0, 0.0); AXES + 1],
+            symmetric: [false; AXES + 1],
             len: 0,
         };
-        let mut push = |jerk: f64, slope: f64, third: (f64, f64), cross: (f64, f64)| {
-            if slope > MOVING {
-                rows.budget[rows.len] = GRID_MARGIN * jerk / slope;
-                rows.third[rows.len] = (third.0 / slope, third.1 / slope);
-                rows.cross[rows.len] = (cross.0 / slope, cross.1 / slope);
-                rows.len += 1;
-            }
-        };
+        let mut push =
+            |jerk: f64, slope: f64, third: (f64, f64), cross: (f64, f64), symmetric: bool| {
+                if slope > MOVING {
+                    rows.budget[rows.len] = GRID_MARGIN * jerk / slope;
+                    rows.third[rows.len] = (third.0 / slope, third.1 / slope);
+                    rows.cross[rows.len] = (cross.0 / slope, cross.1 / slope);
+                    rows.symmetric[rows.len] = symmetric;
+                    rows.len += 1;
+                }
+            };
         let magnitude = |curvature: f64| (-3.0 * curvature, 3.0 * curvature);
         push(
             l.tcp_jerk,
             e.tcp_speed,
             (-e.tcp_third, e.tcp_third),
             magnitude(e.tcp_curvature),
+            false,
         );
         let intervals = k.saturating_sub(2)..=(k + 1).min(INTERVALS - 1);
         let around = k.saturating_sub(1)..=(k + 1).min(INTERVALS);
         for i in 0..AXES {
             let slopes = samples.slope[around.clone()].iter().map(|q| q[i]);
-            let signed = if slopes.clone().all(|q| q > MOVING) {
-                Some(1.0)
+            let (sign, symmetric) = if slopes.clone().all(|q| q > MOVING) {
+                (1.0, false)
             } else if slopes.clone().all(|q| q < -MOVING) {
-                Some(-1.0)
+                (-1.0, false)
             } else {
-                None
+                (1.0, true)
             };
-            let cross = signed.map_or(magnitude(e.curvature[i]), |sign| {
-                samples.curvature[around.clone()]
-                    .iter()
-                    .map(|q| 3.0 * sign * q[i])
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
-                        (lo.min(c), hi.max(c))
-                    })
-            });
-            let third = signed.map_or((-e.third[i], e.third[i]), |sign| {
+            let cross = samples.curvature[around.clone()]
+                .iter()
+                .map(|q| 3.0 * sign * q[i])
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+                    (lo.min(c), hi.max(c))
+                });
+            let third = {
                 let (lo, hi, most) = intervals.clone().fold(
                     (f64::INFINITY, f64::NEG_INFINITY, 0.0f64),
                     |(lo, hi, most), j| {
@@ -451,8 +461,8 @@ impl JerkRows {
                 );
                 let widen = (e.third[i] - most).max(0.0);
                 ((lo - widen).max(-e.third[i]), (hi + widen).min(e.third[i]))
-            });
-            push(l.jerk[i], e.slope[i], third, cross);
+            };
+            push(l.jerk[i], e.slope[i], third, cross, symmetric);
         }
         rows
     }
@@ -511,8 +521,18 @@ impl JerkRows {
             let third_most = larger(t_hi * v3_hi, t_hi * v3_lo);
             let third_least = smaller(t_lo * v3_hi, t_lo * v3_lo);
             let budget = self.budget[r];
-            up = smaller(up, budget - third_most - most(cross));
-            down = smaller(down, budget + third_least + least(cross));
+            let (rise, fall) = (
+                budget - third_most - most(cross),
+                budget + third_least + least(cross),
+            );
+            if self.symmetric[r] {
+                let both = smaller(rise, fall);
+                up = smaller(up, both);
+                down = smaller(down, both);
+            } else {
+                up = smaller(up, rise);
+                down = smaller(down, fall);
+            }
         }
         (up, down)
     }
