@@ -589,7 +589,9 @@ impl Motion {
     /// profiles' time τ advances in it. σ stays within [0, 1] and passes a target only where
     /// it was set too late to brake for.
     fn retime(&mut self, target: f64, rate: f64, acceleration: f64, dt: f64) -> f64 {
-        let (sigma, sigma_rate) = (self.sigma, self.sigma_rate);
+        // A lower rate (a blend's, entered while the override ramps faster) holds at once:
+        // the rate is what keeps the acceleration within its limit.
+        let (sigma, sigma_rate) = (self.sigma, self.sigma_rate.clamp(-rate, rate));
         let gap = target - sigma;
         let toward = if gap < 0.0 { -1.0 } else { 1.0 };
         // The fastest rate towards the target at the end of the tick from which braking at
@@ -858,5 +860,17 @@ mod tests {
         }
         assert!(lowest < target - 0.02, "{lowest}");
         assert_eq!((m.sigma, m.sigma_rate), (target, 0.0));
+    }
+
+    /// A lower rate (a blend's, entered while the override ramps at the move's own) holds
+    /// from the first tick: the rate is what keeps the acceleration within its limit.
+    #[test]
+    fn a_lower_rate_holds_at_once() {
+        let mut m = Motion::at_rest([0.0; AXES], 1.0);
+        while m.sigma_rate > -0.8 {
+            m.retime(0.0, 0.8, 10.0, DT);
+        }
+        m.retime(0.0, 0.3, 10.0, DT);
+        assert!(m.sigma_rate >= -0.3, "{m:?}");
     }
 }
