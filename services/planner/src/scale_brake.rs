@@ -163,7 +163,8 @@ impl ScaleBrake {
                 // says nothing: the stop brakes as soon as it can.
                 let run_out = b.deceleration > 0.0 && left <= RUN_OUT_FACTOR * braking;
                 if run_out {
-                    // The time scale is held from here (as an override step would hold it).
+                    // The time scale is held from here: a stop during an override ramp
+                    // steps σ̇ to 0 here (what is left of such steps in the time scale).
                     self.brake.a = 0.0;
                     self.brake.set_limits(0.0, 0.0, 0.0, 0.0);
                 }
