@@ -258,12 +258,14 @@ pub struct Dynamics {
 /// Share of every joint's and the TCP's jerk limit that the change of an override ramp's
 /// rate takes at most (`σ̈·q̇` in `q⃛ = σ³·q⃛ₜ + 3·σ·σ̇·q̈ₜ + σ̈·q̇ₜ`). With a step of σ̇ instead,
 /// a change of the override took the joints' acceleration by `σ̇·q̇ₜ` (up to the override
-/// reserve's share of the limit) in one tick: 40 times the jerk limit of the JAKA Zu 7.
+/// reserve's share of the limit) in one tick: 80 times the jerk limit of the JAKA Zu 7 (40
+/// in the positions' third differences).
 pub const OVERRIDE_JERK_SHARE: f64 = 0.5;
 /// The same share for a stop during a blend, which brings σ to 0 at the blend's stop rate:
 /// the whole jerk limit, so that it stops about as fast as a stop on a single move (from
-/// full speed on the JAKA Zu 7 in at most 0.63 s instead of 0.89 s with the override's
-/// share; with a step of σ̇ it took the joints' acceleration to its limit in one tick).
+/// full speed on the JAKA Zu 7, computed: at most `2·√(1/σ̈)` = 0.63 s instead of 0.89 s
+/// with the override's share; with a step of σ̇ it took the joints' acceleration to its
+/// limit in one tick).
 pub const BLEND_STOP_JERK_SHARE: f64 = 1.0;
 /// Distance of σ from its target and rate left, relative to an override ramp's change of
 /// rate per tick, below which σ stands on the target.
@@ -637,13 +639,14 @@ impl Motion {
         let passed = (next - target) * gap > 0.0 && sigma_rate.abs() <= change;
         let settled =
             (next - target).abs() <= SETTLED * change && next_rate.abs() <= SETTLED * change;
-        if passed || settled || !(0.0..=1.0f64.max(target)).contains(&next) {
-            next = if passed || settled {
-                target
-            } else {
-                next.clamp(0.0, 1.0f64.max(target))
-            };
-            next_rate = 0.0;
+        let highest = 1.0f64.max(target);
+        let held = if passed || settled {
+            Some(target)
+        } else {
+            (!(0.0..=highest).contains(&next)).then(|| next.clamp(0.0, highest))
+        };
+        if let Some(at) = held {
+            (next, next_rate) = (at, 0.0);
             step = 0.5 * (sigma + next) * dt;
         }
         self.sigma = next;
