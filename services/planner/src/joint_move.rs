@@ -168,17 +168,24 @@ pub struct Timing {
     pub profile: Profile,
     /// Largest rate of change of the override (1/s) the reserve pays for.
     pub override_rate: f64,
+    /// The command's JerkRate as a share of the robot's jerk limits: override ramps during
+    /// the move change their rate within it too.
+    pub jerk_rate: f64,
 }
 
 impl Timing {
-    /// The timing of a move with the path limits `limits`: the profile is planned with the
-    /// share `reserve` in [0, 1) of the acceleration and deceleration held back for override
-    /// changes, and stretched to `requested_s` if that is positive.
+    /// The timing of `command` with the path limits `limits`: the profile is planned with
+    /// the share `reserve` in [0, 1) of the acceleration and deceleration held back for
+    /// override changes, and stretched to the command's duration if that is positive.
     ///
     /// With `|s̈_plan| ≤ (1 − r)·a` (`d` while braking) and `|ṡ_plan| ≤ v`, time scaling by
     /// σ ≤ 1 with `|σ̇| ≤ r·min(a, d)/v` gives `|s̈| ≤ |s̈_plan|·σ² + |ṡ_plan|·|σ̇| ≤ max(a, d)`,
     /// the [`braking`](PathLimits::braking) limit.
-    pub fn plan(limits: PathLimits, reserve: f64, requested_s: f64) -> Result<Self, MoveError> {
+    pub fn plan(
+        limits: PathLimits,
+        reserve: f64,
+        command: &MotionCommand,
+    ) -> Result<Self, MoveError> {
         let fastest = DoubleS::new(
             limits.velocity,
             (1.0 - reserve) * limits.acceleration,
@@ -187,23 +194,19 @@ impl Timing {
         );
         let override_rate =
             reserve * limits.acceleration.min(limits.deceleration) / limits.velocity;
-        Self::with_profile(
-            limits,
-            Profile::DoubleS(fastest),
-            override_rate,
-            requested_s,
-        )
+        Self::with_profile(limits, Profile::DoubleS(fastest), override_rate, command)
     }
 
-    /// The timing of the fastest profile `fastest` (planned within `limits` with the
-    /// reserve that pays for `override_rate`), stretched to `requested_s` if that is
-    /// positive; a requested duration shorter than the profile is an error.
+    /// The timing of `command` on the fastest profile `fastest` (planned within `limits`
+    /// with the reserve that pays for `override_rate`), stretched to the command's duration
+    /// if that is positive; a requested duration shorter than the profile is an error.
     pub fn with_profile(
         limits: PathLimits,
         fastest: Profile,
         override_rate: f64,
-        requested_s: f64,
+        command: &MotionCommand,
     ) -> Result<Self, MoveError> {
+        let requested_s = command.duration_s;
         let profile = if requested_s <= 0.0 {
             fastest
         } else if requested_s < fastest.duration() * (1.0 - DURATION_TOLERANCE) {
@@ -218,6 +221,7 @@ impl Timing {
             limits,
             profile,
             override_rate,
+            jerk_rate: command.jerk_scale,
         })
     }
 }
@@ -281,7 +285,7 @@ impl JointMove {
             start,
             target,
             delta,
-            timing: Timing::plan(path_limits, reserve, command.duration_s)?,
+            timing: Timing::plan(path_limits, reserve, command)?,
         }))
     }
 

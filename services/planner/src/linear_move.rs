@@ -737,7 +737,7 @@ fn timing(
     arm: &Arm<'_>,
     reserve: f64,
 ) -> Result<(Timing, Option<PathWarp>), LinearError> {
-    let constant = Timing::plan(limits, reserve, command.duration_s);
+    let constant = Timing::plan(limits, reserve, command);
     let Some(timer) = arm.timer else {
         return Ok((constant?, None));
     };
@@ -808,12 +808,7 @@ fn timing(
         return Ok((constant?, None));
     };
     Ok((
-        Timing::with_profile(
-            limits,
-            Profile::Table(table),
-            override_rate,
-            command.duration_s,
-        )?,
+        Timing::with_profile(limits, Profile::Table(table), override_rate, command)?,
         warp,
     ))
 }

@@ -24,8 +24,8 @@
 //! A change of the override is a pure re-timing: the profiles' time τ advances σ seconds
 //! per second, and σ approaches the override with `|σ̇|` at most the move's override rate
 //! (which its acceleration reserve pays for) and `|σ̈|` at most
-//! [`Dynamics::scale_acceleration`] of [`OVERRIDE_JERK_SHARE`], braking its rate to arrive
-//! at rest. The commanded
+//! [`Dynamics::scale_acceleration`] of [`OVERRIDE_JERK_SHARE`] times the move's JerkRate,
+//! braking its rate to arrive at rest. The commanded
 //! rates are `q̇ = σ·q̇ₜ`, `q̈ = σ²·q̈ₜ + σ̇·q̇ₜ`, `q⃛ = σ³·q⃛ₜ + 3·σ·σ̇·q̈ₜ + σ̈·q̇ₜ`: a ramp adds
 //! at most [`OVERRIDE_JERK_SHARE`] of every jerk limit through `σ̈·q̇ₜ`, and the cross term;
 //! a guarantee within the limit would need a share of the jerk held back in every plan, as
@@ -275,7 +275,8 @@ impl Dynamics {
     /// Largest `|σ̈|` (1/s²) of a ramp of the time scale for which `|σ̈·q̇ₜ|` stays within
     /// `share` of every joint's and the TCP's jerk limit: no coordinate moves faster than
     /// its velocity limit. [`OVERRIDE_JERK_SHARE`] for override changes,
-    /// [`BLEND_STOP_JERK_SHARE`] for a stop during a blend.
+    /// [`BLEND_STOP_JERK_SHARE`] for a stop during a blend, each times the moves' JerkRate
+    /// ([`Timing::jerk_rate`]; the lower of a blend's two).
     pub fn scale_acceleration(&self, share: f64) -> f64 {
         let (l, tcp) = (&self.limits, &self.tcp);
         let slowest = (0..AXES).fold(tcp.jerk / tcp.velocity, |r, i| {
@@ -498,6 +499,8 @@ impl Motion {
             Phase::Idle => self.start_next(&mut tick, report),
             Phase::Running(running) => self.run(running, &mut tick, report),
             Phase::Blending(mut blend) => {
+                let jerk_rate = blend.plan.timing().jerk_rate;
+                let jerk_rate = jerk_rate.min(blend.outgoing.timing().jerk_rate);
                 let (target, rate, share) = if blend.braking {
                     (0.0, blend.overlap.stop_rate, BLEND_STOP_JERK_SHARE)
                 } else {
@@ -507,7 +510,8 @@ impl Motion {
                         OVERRIDE_JERK_SHARE,
                     )
                 };
-                let step = self.retime(target, rate, dynamics.scale_acceleration(share), dt);
+                let acceleration = dynamics.scale_acceleration(share * jerk_rate);
+                let step = self.retime(target, rate, acceleration, dt);
                 blend.tau += step;
                 blend.outgoing_tau += step;
                 self.overlap(blend);
@@ -662,8 +666,11 @@ impl Motion {
         tick: &mut Tick<'_>,
         report: &mut impl FnMut(u32, u8, u16),
     ) {
-        let rate = running.plan.timing().override_rate;
-        let acceleration = tick.dynamics.scale_acceleration(OVERRIDE_JERK_SHARE);
+        let timing = running.plan.timing();
+        let (rate, jerk_rate) = (timing.override_rate, timing.jerk_rate);
+        let acceleration = tick
+            .dynamics
+            .scale_acceleration(OVERRIDE_JERK_SHARE * jerk_rate);
         running.tau += self.retime(tick.override_target, rate, acceleration, tick.dt);
         if let Handover::Blend(blend) = running.handover
             && running.tau >= blend.overlap.start

@@ -1239,13 +1239,23 @@ mod linear {
     #[test]
     fn override_changes_keep_the_jerk_near_its_limit() {
         let within = 1.0 + crate::motion::OVERRIDE_JERK_SHARE;
-        for (line, at) in [(false, 5.0), (false, 30.0), (false, 80.0), (true, 15.0)] {
+        // (a line, at progress %, JerkRate): a lower JerkRate slows the ramps down with it.
+        let cases = [
+            (false, 5.0, 1.0),
+            (false, 30.0, 1.0),
+            (false, 80.0, 1.0),
+            (true, 15.0, 1.0),
+            (false, 30.0, 0.1),
+            (true, 15.0, 0.1),
+        ];
+        for (line, at, jerk_rate) in cases {
             let mut rig = Rig::new();
-            let c = if line {
+            let mut c = if line {
                 rig.line_by(1, [0.3, -0.3, -0.2], TURN)
             } else {
                 rig.move_to(1, target_a())
             };
+            c.jerk_scale = jerk_rate;
             rig.step(&[c]);
             assert!(
                 !line || runs_on_table(&rig),
@@ -1259,7 +1269,9 @@ mod linear {
             rig.set_override(3, 1.0);
             rig.run_until(20_000, |r| r.is_final(1));
             rig.check_limits();
-            assert_jerk_within(&rig.trace, &rig.limits, DT, within);
+            let mut limits = rig.limits;
+            limits.jerk = limits.jerk.map(|j| jerk_rate * j);
+            assert_jerk_within(&rig.trace, &limits, DT, within);
         }
     }
 
