@@ -73,6 +73,15 @@ pub const MAX_SCALE_JERK: f64 = 200.0;
 /// stops on random lines did, with jerks up to 62 times the limit; none of 1728 at 1.25 or
 /// at 1.5).
 pub const RUN_OUT_FACTOR: f64 = 1.5;
+/// Share of a coordinate's jerk limit that the release of σ̇ at the start of a run-out
+/// takes at least, where the table's own jerk leaves less (it then adds to it): no less
+/// than the share an override ramp changes σ̇ with, so the release is at least as fast as
+/// the ramp (`|q̇ₜ|` is at most the velocity limit the ramp's `|σ̈|` is computed with).
+pub const RUN_OUT_RELEASE_SHARE: f64 = 0.5;
+const _: () = assert!(
+    RUN_OUT_RELEASE_SHARE >= crate::motion::OVERRIDE_JERK_SHARE
+        && RUN_OUT_RELEASE_SHARE <= RELEASE_SHARE * MARGIN
+);
 /// Table rates below this count as standing.
 const MOVING: f64 = 1e-9;
 
@@ -144,44 +153,44 @@ impl ScaleBrake {
         self.brake.is_stopped()
     }
 
-    /// Advances `dt` seconds with the table's rates `table` at the current profile time.
     /// Advances `dt` seconds; `table` gives the table's rates at the current profile time,
-    /// asked for only while the stop brakes (a stop that runs the table out needs none).
+    /// asked for only while the stop changes σ̇ (a stop that runs the table out holds it
+    /// once it has released it).
     pub fn advance(&mut self, dt: f64, table: impl FnOnce() -> TableRates) {
-        if self.run_out == Some(true) {
+        if self.run_out == Some(true) && self.brake.a == 0.0 {
             self.brake.advance(dt);
             return;
         }
         let b = bounds(&table(), &self.limits, self.sigma(), self.sigma_rate(), dt);
-        let run_out = match self.run_out {
-            Some(run_out) => run_out,
-            None => {
-                let sigma = self.sigma().max(f64::MIN_POSITIVE);
-                let left = (self.duration - self.tau()) / sigma;
-                let braking = sigma / b.deceleration + b.deceleration / b.release_jerk;
-                // Without any deceleration now (the table at its own limits) the estimate
-                // says nothing: the stop brakes as soon as it can.
-                let run_out = b.deceleration > 0.0 && left <= RUN_OUT_FACTOR * braking;
-                if run_out {
-                    // The time scale is held from here: a stop during an override ramp
-                    // steps σ̇ to 0 here (what is left of such steps in the time scale).
-                    self.brake.a = 0.0;
-                    self.brake.set_limits(0.0, 0.0, 0.0, 0.0);
-                }
-                *self.run_out.insert(run_out)
-            }
-        };
-        if run_out {
-            self.brake.advance(dt);
-            return;
-        }
+        let (sigma, left) = (self.sigma(), self.duration - self.tau());
+        let run_out = *self.run_out.get_or_insert_with(|| {
+            let sigma = sigma.max(f64::MIN_POSITIVE);
+            let braking = sigma / b.deceleration + b.deceleration / b.release_jerk;
+            // Without any deceleration now (the table at its own limits) the estimate says
+            // nothing: the stop brakes as soon as it can.
+            b.deceleration > 0.0 && left / sigma <= RUN_OUT_FACTOR * braking
+        });
         let t = self.duration;
-        self.brake.set_limits(
-            b.deceleration / t,
-            b.jerk_low / t,
-            b.jerk_high / t,
-            b.release_jerk / t,
-        );
+        if run_out {
+            // The time scale is held from here. A stop during an override ramp first
+            // brings σ̇ to 0: within the limits where the table's jerk leaves room, and at
+            // least as fast as the ramp changed it, so a ramp towards a higher override
+            // ends below it (σ ≤ 1 holds).
+            let (least, most) = (b.least_release / t, b.release_jerk / t);
+            self.brake.set_limits(
+                0.0,
+                (b.jerk_low / t).clamp(-most, -least),
+                (b.jerk_high / t).clamp(least, most),
+                most,
+            );
+        } else {
+            self.brake.set_limits(
+                b.deceleration / t,
+                b.jerk_low / t,
+                b.jerk_high / t,
+                b.release_jerk / t,
+            );
+        }
         self.brake.advance(dt);
     }
 }
@@ -203,6 +212,7 @@ fn bounds(
         jerk_low: -MAX_SCALE_JERK,
         jerk_high: MAX_SCALE_JERK,
         release_jerk: MAX_SCALE_JERK,
+        least_release: MAX_SCALE_JERK,
     };
     for i in 0..COORDINATES {
         let (v, a) = (table.velocity[i], table.acceleration[i]);
@@ -225,6 +235,9 @@ fn bounds(
         if v.abs() > MOVING {
             // As σ → 0 the table's share `used` vanishes: what is left for σ̈ then.
             bounds.release_jerk = bounds.release_jerk.min(RELEASE_SHARE * j / v.abs());
+            bounds.least_release = bounds
+                .least_release
+                .min(RUN_OUT_RELEASE_SHARE * limits.jerk[i] / v.abs());
         }
     }
     // Where the table's own jerk leaves room only for taking the deceleration back, it is
@@ -246,6 +259,8 @@ struct Bounds {
     jerk_high: f64,
     /// The jerk a release of σ̇ can count on until σ = 0.
     release_jerk: f64,
+    /// The `|σ̈|` with which a run-out releases σ̇ at least.
+    least_release: f64,
 }
 
 impl Bounds {
@@ -339,6 +354,36 @@ mod tests {
         }
         assert!(b.is_stopped());
         assert_eq!(b.tau(), 1.0);
+    }
+
+    #[test]
+    fn a_run_out_during_an_override_ramp_releases_the_rate_gradually() {
+        let (j, table) = (5.0, cruise(1.0));
+        for rate in [-0.5, 0.5] {
+            // Near the table's end: the stop runs it out.
+            let mut b = ScaleBrake::new(0.9, 0.6, rate, 1.0, limits(2.0, j));
+            let mut highest = b.sigma();
+            while b.sigma_rate() != 0.0 {
+                let before = b.sigma_rate();
+                b.advance(DT, || table);
+                let change = (b.sigma_rate() - before).abs() / DT;
+                assert!(
+                    change <= RELEASE_SHARE * MARGIN * j * (1.0 + 1e-9),
+                    "{change}"
+                );
+                highest = highest.max(b.sigma());
+                assert!(b.tau() < 1.0, "not released before the end");
+            }
+            assert_eq!(b.run_out, Some(true));
+            let held = b.sigma();
+            for _ in 0..10 {
+                b.advance(DT, || table);
+                assert_eq!(b.sigma(), held);
+            }
+            // Ramping up, σ goes on at most as far as a release at the least jerk takes it.
+            let farthest = 0.6 + rate.max(0.0).powi(2) / (2.0 * RUN_OUT_RELEASE_SHARE * j);
+            assert!(highest <= farthest + 1e-9, "{highest} > {farthest}");
+        }
     }
 
     #[test]

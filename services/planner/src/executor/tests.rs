@@ -1231,6 +1231,48 @@ mod linear {
         assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
     }
 
+    /// GroupStops during override ramps on a line timed by its table, towards a lower and a
+    /// higher override: where the stop runs the table out, the time scale's rate is
+    /// released gradually. A step of it took the acceleration by `σ̇·q̇ₜ` in one tick, up to
+    /// 12.9 times the jerk limit; now the jerk stays within the ramp's own bound.
+    #[test]
+    fn stops_during_override_ramps_release_the_rate_gradually() {
+        let within = 1.0 + crate::motion::OVERRIDE_JERK_SHARE;
+        // (at progress %, ticks into the ramp, ramping up to 100 % from 30 %)
+        let cases = [
+            (50.0, 60, false),
+            (80.0, 20, false),
+            (96.0, 60, false),
+            (50.0, 30, true),
+            (85.0, 30, true),
+        ];
+        for (at, into_ramp, up) in cases {
+            let mut rig = Rig::new();
+            let start = pose::pose(&tcp_of(&rig.feedback.q));
+            let line = rig.line_by(1, [0.3, -0.3, -0.2], TURN);
+            rig.step(&[line]);
+            assert!(runs_on_table(&rig), "the line is not timed by its table");
+            rig.run_until(20_000, |r| r.executor.status().active_progress > at);
+            rig.set_override(2, 0.3);
+            if up {
+                for _ in 0..300 {
+                    rig.step(&[]);
+                }
+                rig.set_override(3, 1.0);
+            }
+            for _ in 0..into_ramp {
+                rig.step(&[]);
+            }
+            let stop = rig.command(MotionCommandKind::Stop, 4);
+            rig.step(&[stop]);
+            rig.run_until(20_000, |r| r.is_final(4));
+            rig.check_on_tcp_line(0, start, line.pose);
+            rig.check_limits();
+            assert_jerk_within(&rig.trace, &rig.limits, DT, within);
+            assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+        }
+    }
+
     /// Override changes (to 30 % and back) at several points of a joint move and of a line
     /// timed by its table: the time scale's rate changes gradually, so the jerk stays within
     /// the move's own plus [`OVERRIDE_JERK_SHARE`](crate::motion::OVERRIDE_JERK_SHARE) of the
