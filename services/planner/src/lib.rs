@@ -37,6 +37,7 @@ pub mod service;
 pub mod targets;
 #[cfg(test)]
 mod test_support;
+pub mod time_scale;
 pub mod topp;
 pub mod wrist_interpolation;
 

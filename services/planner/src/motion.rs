@@ -50,6 +50,7 @@ use crate::linear_move::{LinearMove, LinearPlan, TcpLimits};
 use crate::profile::Profile;
 use crate::scale_brake::{COORDINATES, ScaleBrake, TableRates};
 use crate::sequences::{Cursor, Holds, Sequence, Sequences};
+use crate::time_scale::TimeScale;
 
 /// Wait time (s) left that counts as none, against rounding of the tick sum.
 const WAIT_TOLERANCE_S: f64 = 1e-9;
@@ -267,9 +268,6 @@ pub const OVERRIDE_JERK_SHARE: f64 = 0.5;
 /// with the override's share; with a step of σ̇ it took the joints' acceleration to its
 /// limit in one tick).
 pub const BLEND_STOP_JERK_SHARE: f64 = 1.0;
-/// Distance of σ from its target and rate left, relative to an override ramp's change of
-/// rate per tick, below which σ stands on the target.
-const SETTLED: f64 = 1e-6;
 
 impl Dynamics {
     /// Largest `|σ̈|` (1/s²) of a ramp of the time scale for which `|σ̈·q̇ₜ|` stays within
@@ -297,9 +295,7 @@ pub struct Motion {
     /// commanded (override included).
     pub path_rate: (f64, f64),
     /// Time scale σ: the running profile advances σ seconds per second.
-    sigma: f64,
-    /// σ̇ over the last tick.
-    sigma_rate: f64,
+    scale: TimeScale,
     /// What the arm is doing.
     pub phase: Phase,
     /// The held sequences: a standing arm starts none of their moves.
@@ -336,8 +332,7 @@ impl Motion {
             },
             path_position: 0.0,
             path_rate: (0.0, 0.0),
-            sigma,
-            sigma_rate: 0.0,
+            scale: TimeScale::at(sigma),
             phase: Phase::Idle,
             holds: Holds::default(),
         }
@@ -420,8 +415,8 @@ impl Motion {
         if let (Profile::Table(table), Path::Linear(m)) = (&timing.profile, plan) {
             return Stop::TimeScale(ScaleBrake::new(
                 tau,
-                self.sigma,
-                self.sigma_rate,
+                self.scale.sigma,
+                self.scale.rate,
                 table.duration(),
                 *m.scale_limits(),
             ));
@@ -431,8 +426,8 @@ impl Motion {
         // Same (s, ṡ, s̈) as the point last commanded, so the stop is continuous.
         Stop::Path(PathBrake::new(
             s,
-            sd * self.sigma,
-            sdd * self.sigma * self.sigma + sd * self.sigma_rate,
+            sd * self.scale.sigma,
+            sdd * self.scale.sigma * self.scale.sigma + sd * self.scale.rate,
             limits.braking(),
             limits.jerk,
         ))
@@ -451,8 +446,8 @@ impl Motion {
             Stop::TimeScale(brake) => {
                 let tau = brake.tau();
                 brake.advance(dt, || plan.table_rates(tau, dt, &self.point.q));
-                self.sigma = brake.sigma();
-                self.sigma_rate = brake.sigma_rate();
+                self.scale.sigma = brake.sigma();
+                self.scale.rate = brake.sigma_rate();
                 self.place(&plan, brake.tau());
                 brake.is_stopped()
             }
@@ -511,7 +506,7 @@ impl Motion {
                     )
                 };
                 let acceleration = dynamics.scale_acceleration(share * jerk_rate);
-                let step = self.retime(target, rate, acceleration, dt);
+                let step = self.scale.ramp(target, rate, acceleration, dt);
                 blend.tau += step;
                 blend.outgoing_tau += step;
                 self.overlap(blend);
@@ -593,69 +588,12 @@ impl Motion {
 
     fn stand(&mut self, override_target: f64) {
         // Without motion the time scale has no inertia.
-        self.sigma = override_target;
-        self.sigma_rate = 0.0;
+        self.scale.sigma = override_target;
+        self.scale.rate = 0.0;
         self.point.qd = [0.0; AXES];
         self.point.qdd = [0.0; AXES];
         self.path_position = 0.0;
         self.path_rate = (0.0, 0.0);
-    }
-
-    /// σ approaches `target` over a tick of `dt` with `|σ̇| ≤ rate` (1/s) and `|σ̈| ≤
-    /// acceleration` (1/s²), braking its rate in time to arrive at rest; returns how far the
-    /// profiles' time τ advances in it. σ stays within [0, 1] and passes a target only where
-    /// it was set too late to brake for.
-    fn retime(&mut self, target: f64, rate: f64, acceleration: f64, dt: f64) -> f64 {
-        // A lower rate (a blend's, entered while the override ramps faster) holds at once:
-        // the rate is what keeps the acceleration within its limit.
-        let (sigma, sigma_rate) = (self.sigma, self.sigma_rate.clamp(-rate, rate));
-        let gap = target - sigma;
-        let toward = if gap < 0.0 { -1.0 } else { 1.0 };
-        // The fastest rate towards the target at the end of the tick from which braking at
-        // `acceleration` (in the same trapezoid steps) still stops on it:
-        // `(σ̇ + v)/2·dt + v²/(2·acceleration) ≤ |gap|`; none where even that overshoots.
-        let half = 0.5 * dt;
-        let room = half * half + 2.0 * (gap.abs() - toward * sigma_rate * half) / acceleration;
-        let arriving = if room >= 0.0 {
-            acceleration * (room.sqrt() - half)
-        } else {
-            f64::NEG_INFINITY
-        };
-        let change = acceleration * dt;
-        // Near the target: this tick's rate, then 0 in the next, ends on it (braking on the
-        // bound alone, the rate would flip about it without getting there).
-        let finishing = gap.abs() / dt - 0.5 * toward * sigma_rate;
-        let wanted = if (finishing - toward * sigma_rate).abs() <= change
-            && finishing.abs() <= change.min(rate)
-        {
-            toward * finishing
-        } else {
-            toward * rate.min(arriving)
-        };
-        let mut next_rate = sigma_rate + (wanted - sigma_rate).clamp(-change, change);
-        // σ̈ is constant within the tick.
-        let mut step = dt * (sigma + dt * (2.0 * sigma_rate + next_rate) / 6.0);
-        let mut next = sigma + 0.5 * (sigma_rate + next_rate) * dt;
-        // The last step may end a little past the target or, by rounding, short of rest on
-        // it: it stops on the target instead, within one tick's change of σ̇. (Faster, it
-        // passes the target only where a new one came too late to brake for: it then turns
-        // back as it can.)
-        let passed = (next - target) * gap > 0.0 && sigma_rate.abs() <= change;
-        let settled =
-            (next - target).abs() <= SETTLED * change && next_rate.abs() <= SETTLED * change;
-        let highest = 1.0f64.max(target);
-        let held = if passed || settled {
-            Some(target)
-        } else {
-            (!(0.0..=highest).contains(&next)).then(|| next.clamp(0.0, highest))
-        };
-        if let Some(at) = held {
-            (next, next_rate) = (at, 0.0);
-            step = 0.5 * (sigma + next) * dt;
-        }
-        self.sigma = next;
-        self.sigma_rate = next_rate;
-        step
     }
 
     /// One tick of a running move under the override; a planned blend starts the next move
@@ -671,7 +609,9 @@ impl Motion {
         let acceleration = tick
             .dynamics
             .scale_acceleration(OVERRIDE_JERK_SHARE * jerk_rate);
-        running.tau += self.retime(tick.override_target, rate, acceleration, tick.dt);
+        running.tau += self
+            .scale
+            .ramp(tick.override_target, rate, acceleration, tick.dt);
         if let Handover::Blend(blend) = running.handover
             && running.tau >= blend.overlap.start
         {
@@ -730,7 +670,7 @@ impl Motion {
         previous: &[f64; AXES],
     ) -> (JointPoint, f64, (f64, f64)) {
         let (s, sd, sdd) = plan.timing().profile.eval(tau);
-        let (sigma, sigma_rate) = (self.sigma, self.sigma_rate);
+        let (sigma, sigma_rate) = (self.scale.sigma, self.scale.rate);
         let rate = (sd * sigma, sdd * sigma * sigma + sd * sigma_rate);
         (plan.point(s, rate.0, rate.1, previous), s, rate)
     }
@@ -770,7 +710,7 @@ impl Motion {
         self.path_rate = rate;
         blend.outgoing_joints = a.q;
         blend.joints = b.q;
-        self.phase = if blend.braking && self.sigma <= 0.0 {
+        self.phase = if blend.braking && self.scale.sigma <= 0.0 {
             // Stands on the blended path: the stop is over.
             Phase::Idle
         } else {
@@ -804,122 +744,5 @@ impl Motion {
             self.holds.primary = true;
         }
         report(active.job, state::DONE, 0);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    const DT: f64 = 1e-3;
-
-    /// An override ramp changes σ̇ by at most its acceleration per second, never faster
-    /// than its rate, never past the target it heads for and never out of [0, 1]; it
-    /// arrives on the target at rest, as soon as the rate and the acceleration allow. Down
-    /// to 0.3, back up to 1 before arriving, down to 0 and up to 1 again. (A step of σ̇
-    /// moved the joints' acceleration by up to the override reserve's share of its limit in
-    /// one tick: 80 times the jerk limit of the JAKA Zu 7.)
-    #[test]
-    fn override_ramps_change_their_rate_gradually_and_stop_on_the_target() {
-        let (rate, acceleration) = (0.8, 10.0);
-        let mut m = Motion::at_rest([0.0; AXES], 1.0);
-        for (target, ticks) in [(0.3, 400), (1.0, 2000), (0.0, 2000), (1.0, 2000)] {
-            let (from, from_rest) = (m.sigma, m.sigma_rate == 0.0);
-            let mut arrived = None;
-            for tick in 0..ticks {
-                let (sigma, sigma_rate) = (m.sigma, m.sigma_rate);
-                let step = m.retime(target, rate, acceleration, DT);
-                assert!(m.sigma_rate.abs() <= rate * (1.0 + 1e-12), "{m:?}");
-                let change = (m.sigma_rate - sigma_rate).abs();
-                assert!(
-                    change <= acceleration * DT * (1.0 + 1e-9),
-                    "{change} at {m:?}"
-                );
-                assert!((0.0..=1.0).contains(&m.sigma), "{m:?}");
-                assert!(
-                    (m.sigma - target) * (from - target) >= 0.0,
-                    "past {target}: {m:?}"
-                );
-                let (low, high) = (sigma.min(m.sigma), sigma.max(m.sigma));
-                assert!(step >= low * DT - 1e-15 && step <= high * DT + 1e-15);
-                if arrived.is_none() && m.sigma == target && m.sigma_rate == 0.0 {
-                    arrived = Some(tick + 1);
-                }
-            }
-            if target == 0.3 {
-                assert!(arrived.is_none(), "turned back before 0.3");
-                continue;
-            }
-            let arrived = arrived.unwrap_or_else(|| panic!("not at {target}: {m:?}"));
-            if from_rest {
-                // From rest: `|Δσ|/rate + rate/acceleration`, within a few ticks.
-                let shortest = (target - from).abs() / rate + rate / acceleration;
-                assert!(
-                    arrived as f64 * DT <= shortest + 3.0 * DT,
-                    "{arrived} ticks"
-                );
-            }
-        }
-    }
-
-    /// A target set too late to brake for (σ falling at the full rate just above it) is
-    /// passed and reached from the other side, the rate changing as gradually as ever.
-    #[test]
-    fn a_target_too_near_to_brake_for_is_passed_and_reached_from_the_other_side() {
-        let (rate, acceleration) = (0.8, 10.0);
-        let mut m = Motion::at_rest([0.0; AXES], 1.0);
-        while m.sigma > 0.5 {
-            m.retime(0.0, rate, acceleration, DT);
-        }
-        assert_eq!(m.sigma_rate, -rate);
-        let target = m.sigma - 0.001;
-        let mut lowest = m.sigma;
-        for _ in 0..1000 {
-            let before = m.sigma_rate;
-            m.retime(target, rate, acceleration, DT);
-            assert!((m.sigma_rate - before).abs() <= acceleration * DT * (1.0 + 1e-9));
-            lowest = lowest.min(m.sigma);
-        }
-        assert!(lowest < target - 0.02, "{lowest}");
-        assert_eq!((m.sigma, m.sigma_rate), (target, 0.0));
-    }
-
-    /// A lower rate (a blend's, entered while the override ramps at the move's own) holds
-    /// from the first tick: the rate is what keeps the acceleration within its limit.
-    #[test]
-    fn a_lower_rate_holds_at_once() {
-        let mut m = Motion::at_rest([0.0; AXES], 1.0);
-        while m.sigma_rate > -0.8 {
-            m.retime(0.0, 0.8, 10.0, DT);
-        }
-        m.retime(0.0, 0.3, 10.0, DT);
-        assert!(m.sigma_rate >= -0.3, "{m:?}");
-    }
-
-    /// From rates and distances around a target of every sign and size near one tick's
-    /// change, σ settles exactly on it at rest, its rate changing by at most one tick's step
-    /// and never beyond the rate, also where the rate is below one tick's change.
-    #[test]
-    fn near_the_target_the_ramp_settles_within_its_bounds() {
-        let acceleration = 10.0;
-        let change = acceleration * DT;
-        for rate in [0.8, 0.004] {
-            for gap in [-1e-4, -3.9e-6, -1e-7, 0.0, 1e-7, 3.9e-6, 1e-4] {
-                for start_rate in [-0.03, -0.02, -0.004, 0.0, 0.004, 0.02, 0.03] {
-                    let start_rate = f64::clamp(start_rate, -rate, rate);
-                    let target = 0.6271476;
-                    let mut m = Motion::at_rest([0.0; AXES], target - gap);
-                    m.sigma_rate = start_rate;
-                    for _ in 0..2000 {
-                        let before = m.sigma_rate;
-                        m.retime(target, rate, acceleration, DT);
-                        let step = (m.sigma_rate - before).abs();
-                        assert!(step <= change * (1.0 + 1e-9), "{gap} {start_rate}: {step}");
-                        assert!(m.sigma_rate.abs() <= rate, "{gap} {start_rate}: {m:?}");
-                    }
-                    assert_eq!((m.sigma, m.sigma_rate), (target, 0.0), "{gap} {start_rate}");
-                }
-            }
-        }
     }
 }
