@@ -449,6 +449,12 @@ impl Executor {
     /// what the servo has been sent must not change. A move whose next one is not buffered
     /// by then (the CODESYS rule: both commanded in time), or whose StepMode holds after
     /// it, ends with an exact stop. Runs before the committed tick of a step only.
+    ///
+    /// An override ramp under way then moves the overlap's earliest start on by the time
+    /// its rate takes to come down to 0: the blend's rate, often lower than the move's,
+    /// holds from the overlap's start, and the rate comes down to it on the way (see
+    /// [`Motion`]) without changing what the servo has been sent. Held at once instead, it
+    /// stepped the acceleration by up to 9 times the jerk limit in one tick.
     fn prepare_blend(&mut self, dt: f64) {
         let Phase::Running(running) = self.motion.phase else {
             return;
@@ -466,9 +472,20 @@ impl Executor {
             None | Some(Blending::ExactStop) => Handover::ExactStop,
             Some(_) if running.active.hold_after => Handover::ExactStop,
             Some(_) if running.tau + lookahead < half => return,
-            Some(blending) => self
-                .plan_blend(&running, blending, running.tau + lookahead)
-                .map_or(Handover::ExactStop, Handover::Blend),
+            Some(blending) => {
+                let (rate, acceleration) = self.dynamics.override_ramp(running.plan.timing());
+                let scale = self.motion.time_scale();
+                let settled = scale.rate == 0.0 && scale.sigma == self.override_target;
+                // The fastest rate within the setpoint window, with the override as it is.
+                let fastest = if settled {
+                    0.0
+                } else {
+                    rate.min(scale.rate.abs() + acceleration * lookahead)
+                };
+                let earliest_start = running.tau + lookahead + fastest / acceleration;
+                self.plan_blend(&running, blending, earliest_start)
+                    .map_or(Handover::ExactStop, Handover::Blend)
+            }
         };
         if let Phase::Running(running) = &mut self.motion.phase {
             running.handover = handover;

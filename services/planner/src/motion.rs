@@ -282,6 +282,14 @@ impl Dynamics {
         });
         share * slowest
     }
+
+    /// The bounds of an override ramp during a move of `timing`: `|σ̇|` (1/s, what the
+    /// move's acceleration reserve pays for) and `|σ̈|` (1/s², [`OVERRIDE_JERK_SHARE`] of the
+    /// move's jerk limits).
+    pub fn override_ramp(&self, timing: &Timing) -> (f64, f64) {
+        let share = OVERRIDE_JERK_SHARE * timing.jerk_rate;
+        (timing.override_rate, self.scale_acceleration(share))
+    }
 }
 
 /// The commanded joint motion and the time scaling of the override.
@@ -373,6 +381,11 @@ impl Motion {
             Path::Linear(m) => m.travel(self.path_position, rd, rdd),
             Path::Joint(_) => (self.path_position, rd, rdd),
         }
+    }
+
+    /// The time scale σ of the override and its rate.
+    pub fn time_scale(&self) -> TimeScale {
+        self.scale
     }
 
     /// Whether two moves overlap now (SRCI IsBlending).
@@ -604,11 +617,14 @@ impl Motion {
         tick: &mut Tick<'_>,
         report: &mut impl FnMut(u32, u8, u16),
     ) {
-        let timing = running.plan.timing();
-        let (rate, jerk_rate) = (timing.override_rate, timing.jerk_rate);
-        let acceleration = tick
-            .dynamics
-            .scale_acceleration(OVERRIDE_JERK_SHARE * jerk_rate);
+        let (mut rate, acceleration) = tick.dynamics.override_ramp(running.plan.timing());
+        if let Handover::Blend(blend) = running.handover {
+            // The blend's own (lower) rate holds from the overlap's start: the rate comes
+            // down to it on the way, as gradually as a ramp changes it (τ advances at most
+            // a second per second). The executor plans the overlap late enough for that.
+            let left = (blend.overlap.start - running.tau).max(0.0);
+            rate = rate.min(blend.overlap.override_rate + acceleration * left);
+        }
         running.tau += self
             .scale
             .ramp(tick.override_target, rate, acceleration, tick.dt);
