@@ -986,8 +986,9 @@ mod random {
         #![proptest_config(ProptestConfig::with_cases(24))]
 
         /// Whatever happens when, to joint and linear moves of both sequences, the joints
-        /// never leave their velocity and acceleration limits, and every job ends with a
-        /// final state once both sequences are continued.
+        /// never leave their velocity and acceleration limits nor the jerk limit by more
+        /// than an override ramp adds, and every job ends with a final state once both
+        /// sequences are continued.
         #[test]
         fn any_sequence_of_overrides_stops_and_aborts_keeps_the_limits(
             offset in prop::array::uniform6(-1.0f64..1.0),
@@ -1064,6 +1065,8 @@ mod random {
             prop_assert!(!s.sequence_paused);
             prop_assert_eq!((s.active_job, s.queued_jobs), (0, 0));
             rig.check_limits();
+            let within = 1.0 + crate::motion::OVERRIDE_JERK_SHARE;
+            assert_jerk_within(&rig.trace, &rig.limits, DT, within);
         }
     }
 }
@@ -2583,8 +2586,9 @@ mod blending {
             #![proptest_config(ProptestConfig::with_cases(16))]
 
             /// Joint and linear moves blended by any mode, under any override: no tick
-            /// leaves a joint position, velocity or acceleration limit, and every move
-            /// that was buffered ends DONE.
+            /// leaves a joint position, velocity or acceleration limit, nor the jerk limit
+            /// by more than two moves' jerks and an override ramp add, and every move that
+            /// was buffered ends DONE.
             #[test]
             fn random_blended_sequences_keep_the_joint_limits(
                 legs in prop::collection::vec((leg(), blending()), 2..6),
@@ -2628,6 +2632,8 @@ mod blending {
                     prop_assert!(refused || rig.final_state(job) == Some((state::DONE, 0)));
                 }
                 rig.check_limits();
+                let within = 2.0 + crate::motion::OVERRIDE_JERK_SHARE;
+                assert_jerk_within(&rig.trace, &rig.limits, DT, within);
             }
         }
     }
