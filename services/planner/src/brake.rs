@@ -90,6 +90,12 @@ impl PathBrake {
             let (jerk, duration) = self.phase();
             let t = duration.clamp(0.0, left);
             self.integrate(jerk, t);
+            // A phase that ends on the deceleration limit lands on it exactly: a rounding
+            // leftover would start another phase of almost no length (with a limit of 0,
+            // over and over, never reaching it, the tick's time left unspent).
+            if (self.a + self.a_max).abs() <= SWITCH_TOLERANCE * (self.a_max + jerk.abs() * t) {
+                self.a = -self.a_max;
+            }
             left -= t;
         }
     }

@@ -5,8 +5,10 @@
 //! A time-optimal table ([`topp`](crate::topp)) runs at the limits the path allows at every
 //! point, so constant path bounds cannot stop it: where it is fast they would brake too
 //! weakly, and a stop near the end would have to pass it. Scaling the table's time instead
-//! never goes faster than the table at any point of the path (σ ≤ 1 never grows), so a stop
-//! always ends on the path, at the latest where the table itself ends at rest.
+//! never goes faster than the table at any point of the path (σ ≤ 1), so a stop always ends
+//! on the path, at the latest where the table itself ends at rest. A stop that begins while
+//! an override ramp raises σ lets σ go on rising while its rate comes down, as gradually as
+//! the ramp would have, so σ stays below the ramp's target.
 //!
 //! With the table's rates `q̇ₜ`, `q̈ₜ`, `q⃛ₜ` of a coordinate (a joint, or the TCP along its
 //! path) at the current profile time, the commanded rates are
@@ -31,8 +33,8 @@
 //! `σ³·q⃛ₜ` and for σ̈, which can then bring the deceleration back.
 //!
 //! Where the table's own jerk and the cross term leave room only for taking the deceleration
-//! back (the range above does not hold 0), it is taken back, but not past `σ̇ = 0`: σ never
-//! grows, so the arm is never sped up and never leaves the path, but at that point the jerk
+//! back (the range above does not hold 0), it is taken back, but not past `σ̇ = 0`: σ does
+//! not grow, so the arm is not sped up and never leaves the path, but at that point the jerk
 //! may exceed its limit by what the table takes beyond it; and a release that a shrinking
 //! range cuts short ends with a step of `σ̇·q̇ₜ` in the acceleration. The table uses its
 //! whole jerk budget, so a stop still braking the time scale when the table brakes to its
@@ -363,7 +365,11 @@ mod tests {
             // Near the table's end: the stop runs it out.
             let mut b = ScaleBrake::new(0.9, 0.6, rate, 1.0, limits(2.0, j));
             let mut highest = b.sigma();
-            while b.sigma_rate() != 0.0 {
+            for tick in 0.. {
+                if b.sigma_rate() == 0.0 {
+                    break;
+                }
+                assert!(tick < 10_000, "never released: {b:?}");
                 let before = b.sigma_rate();
                 b.advance(DT, || table);
                 let change = (b.sigma_rate() - before).abs() / DT;
@@ -383,6 +389,46 @@ mod tests {
             // Ramping up, σ goes on at most as far as a release at the least jerk takes it.
             let farthest = 0.6 + rate.max(0.0).powi(2) / (2.0 * RUN_OUT_RELEASE_SHARE * j);
             assert!(highest <= farthest + 1e-9, "{highest} > {farthest}");
+        }
+    }
+
+    proptest::proptest! {
+        /// Run-outs from any state of an override ramp, on uneven numbers: the release of
+        /// σ̇ ends exactly at 0 within a bounded time, and from then on the profile's time
+        /// advances σ seconds per second until the table's end stops it. (With a rounding
+        /// leftover of the release, σ̇ never reached 0 exactly: the time stood still on some
+        /// ticks and some stops never ended.)
+        #[test]
+        fn a_run_out_releases_its_rate_exactly_and_then_runs_the_table_out(
+            tau in 0.5f64..0.99,
+            sigma in 0.05f64..1.0,
+            rate in -0.8f64..0.8,
+            duration in 0.3f64..3.0,
+            velocity in 0.1f64..3.0,
+            a in 1.0f64..20.0,
+            j in 5.0f64..100.0,
+        ) {
+            let table = cruise(velocity);
+            let mut b = ScaleBrake::new(tau * duration, sigma, rate, duration, limits(a, j));
+            let mut ticks = 0;
+            while b.sigma_rate() != 0.0 && !b.is_stopped() {
+                b.advance(DT, || table);
+                ticks += 1;
+                proptest::prop_assert!(ticks < 10_000, "never released: {b:?}");
+            }
+            if b.run_out == Some(true) {
+                while !b.is_stopped() {
+                    let (before, held) = (b.tau(), b.sigma());
+                    b.advance(DT, || table);
+                    let advanced = b.tau() - before;
+                    proptest::prop_assert!(
+                        b.is_stopped() || (advanced - held * DT).abs() <= 1e-9 * DT.max(held * DT),
+                        "{advanced} instead of {} at {b:?}", held * DT
+                    );
+                    ticks += 1;
+                    proptest::prop_assert!(ticks < 1_000_000, "never stopped: {b:?}");
+                }
+            }
         }
     }
 
