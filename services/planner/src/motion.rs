@@ -264,9 +264,9 @@ pub struct Dynamics {
 pub const OVERRIDE_JERK_SHARE: f64 = 0.5;
 /// The same share for a stop during a blend, which brings σ to 0 at the blend's stop rate:
 /// the whole jerk limit, so that it stops about as fast as a stop on a single move (from
-/// full speed on the JAKA Zu 7, computed: at most `2·√(1/σ̈)` = 0.63 s instead of 0.89 s
-/// with the override's share; with a step of σ̇ it took the joints' acceleration to its
-/// limit in one tick).
+/// full speed on the JAKA Zu 7 at JerkRate 100 %, computed: at most `2·√(1/σ̈)` = 0.63 s
+/// instead of 0.89 s with the override's share, longer by `1/√JerkRate` at a lower
+/// JerkRate; with a step of σ̇ it took the joints' acceleration to its limit in one tick).
 pub const BLEND_STOP_JERK_SHARE: f64 = 1.0;
 
 impl Dynamics {

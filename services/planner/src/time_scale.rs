@@ -27,9 +27,17 @@ impl TimeScale {
     /// profiles' time τ advances in it. σ stays within [0, 1] and passes a target only where
     /// it was set too late to brake for.
     pub fn ramp(&mut self, target: f64, rate: f64, acceleration: f64, dt: f64) -> f64 {
-        // A lower rate (a blend's, entered while the override ramps faster) holds at once:
-        // the rate is what keeps the acceleration within its limit.
-        let (sigma, sigma_rate) = (self.sigma, self.rate.clamp(-rate, rate));
+        let change = acceleration * dt;
+        // A rate lower than σ̇ by up to one tick's change (a blend's, approached gradually)
+        // is reached within this tick's change; one lower still (a blend's, entered while
+        // the override ramps faster) holds at once: the rate is what keeps the
+        // acceleration within its limit.
+        let sigma_rate = if self.rate.abs() - rate <= change {
+            self.rate
+        } else {
+            self.rate.clamp(-rate, rate)
+        };
+        let sigma = self.sigma;
         let gap = target - sigma;
         let toward = if gap < 0.0 { -1.0 } else { 1.0 };
         // The fastest rate towards the target at the end of the tick from which braking at
@@ -42,7 +50,6 @@ impl TimeScale {
         } else {
             f64::NEG_INFINITY
         };
-        let change = acceleration * dt;
         // Near the target: this tick's rate, then 0 in the next, ends on it (braking on the
         // bound alone, the rate would flip about it without getting there).
         let finishing = gap.abs() / dt - 0.5 * toward * sigma_rate;
@@ -53,7 +60,8 @@ impl TimeScale {
         } else {
             toward * rate.min(arriving)
         };
-        let mut next_rate = sigma_rate + (wanted - sigma_rate).clamp(-change, change);
+        let mut next_rate =
+            (sigma_rate + (wanted - sigma_rate).clamp(-change, change)).clamp(-rate, rate);
         // σ̈ is constant within the tick.
         let mut step = dt * (sigma + dt * (2.0 * sigma_rate + next_rate) / 6.0);
         let mut next = sigma + 0.5 * (sigma_rate + next_rate) * dt;
@@ -167,6 +175,32 @@ mod tests {
         }
         m.ramp(0.0, 0.3, 10.0, DT);
         assert!(m.rate >= -0.3, "{m:?}");
+    }
+
+    /// A rate that comes down a little every tick (towards a blend's, ahead of its overlap)
+    /// while the override turns back: σ̇ still changes by at most one tick's step. (Held
+    /// at the lower rate first and then changed by a step, it changed by up to 1.86 steps;
+    /// found by a review.)
+    #[test]
+    fn a_rate_coming_down_gradually_changes_sigma_rate_by_one_step_at_most() {
+        let acceleration = 10.0;
+        let change = acceleration * DT;
+        for turn_after in [1, 5, 20] {
+            let mut m = TimeScale::at(0.9);
+            while m.rate > -0.5 {
+                m.ramp(0.0, 0.5, acceleration, DT);
+            }
+            let mut rate = 0.5;
+            for tick in 0..200 {
+                rate = (rate - 0.9 * change).max(0.05);
+                let target = if tick < turn_after { 0.0 } else { 1.0 };
+                let before = m.rate;
+                m.ramp(target, rate, acceleration, DT);
+                let step = (m.rate - before).abs();
+                assert!(step <= change * (1.0 + 1e-9), "{turn_after} {tick}: {step}");
+                assert!(m.rate.abs() <= rate, "{m:?}");
+            }
+        }
     }
 
     /// From rates and distances around a target of every sign and size near one tick's
