@@ -474,14 +474,13 @@ impl Executor {
             Some(_) if running.tau + lookahead < half => return,
             Some(blending) => {
                 let (rate, acceleration) = self.dynamics.override_ramp(running.plan.timing());
-                let scale = self.motion.time_scale();
-                let settled = scale.rate == 0.0 && scale.sigma == self.override_target;
                 // The fastest rate within the setpoint window, with the override as it is.
-                let fastest = if settled {
-                    0.0
-                } else {
-                    rate.min(scale.rate.abs() + acceleration * lookahead)
-                };
+                let fastest = self.motion.time_scale().fastest_rate(
+                    self.override_target,
+                    rate,
+                    acceleration,
+                    lookahead,
+                );
                 let earliest_start = running.tau + lookahead + fastest / acceleration;
                 self.plan_blend(&running, blending, earliest_start)
                     .map_or(Handover::ExactStop, Handover::Blend)

@@ -507,8 +507,8 @@ impl Motion {
             Phase::Idle => self.start_next(&mut tick, report),
             Phase::Running(running) => self.run(running, &mut tick, report),
             Phase::Blending(mut blend) => {
-                let jerk_rate = blend.plan.timing().jerk_rate;
-                let jerk_rate = jerk_rate.min(blend.outgoing.timing().jerk_rate);
+                let (incoming, outgoing) = (blend.plan.timing(), blend.outgoing.timing());
+                let jerk_rate = incoming.jerk_rate.min(outgoing.jerk_rate);
                 let (target, rate, share) = if blend.braking {
                     (0.0, blend.overlap.stop_rate, BLEND_STOP_JERK_SHARE)
                 } else {

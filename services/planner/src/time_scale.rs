@@ -22,6 +22,17 @@ impl TimeScale {
         Self { sigma, rate: 0.0 }
     }
 
+    /// The largest `|σ̇|` (1/s) that ramps towards `target` within the bounds `rate` and
+    /// `acceleration` (see [`ramp`](Self::ramp)) reach within `horizon` seconds: none where
+    /// σ stands on its target.
+    pub fn fastest_rate(&self, target: f64, rate: f64, acceleration: f64, horizon: f64) -> f64 {
+        if self.rate == 0.0 && self.sigma == target {
+            0.0
+        } else {
+            rate.min(self.rate.abs() + acceleration * horizon)
+        }
+    }
+
     /// σ approaches `target` over a tick of `dt` with `|σ̇| ≤ rate` (1/s) and `|σ̈| ≤
     /// acceleration` (1/s²), braking its rate in time to arrive at rest; returns how far the
     /// profiles' time τ advances in it. σ stays within [0, 1] and passes a target only where
