@@ -56,6 +56,16 @@
 //! exceeds a limit, the overlap shrinks (a bisection) down to an exact stop. The free share of
 //! the acceleration limits, divided by the largest joint speeds, is the rate at which the
 //! override may change (and a stop brake) during the overlap.
+//!
+//! The jerks of the two moves add up as well: where both change a joint's acceleration the
+//! same way at their jerk limits (A easing its braking while B starts the joint on, say),
+//! the sum reaches twice the limit (1.65 times in a joint → line → line → joint sequence).
+//! Shrinking the overlap does not help, since the moves' jerk phases lie at A's end and B's
+//! start, so the overlap runs slower instead: the jerk of the sum is sampled every [`JERK_STEP_S`], and where it exceeds a joint's jerk limit (of the
+//! higher of the two moves' JerkRates) the overlap's time scale is held to
+//! [`Overlap::max_scale`], at which `σ³·|q⃛_A + q⃛_B|` keeps it. Velocity and acceleration
+//! only fall with σ. The time scale comes down to it before the overlap starts (see
+//! [`motion`](crate::motion)).
 
 use nalgebra::{Isometry3, Vector3};
 use shared_types::config::JointLimitsRad;
@@ -87,6 +97,17 @@ const MIN_OVERLAP_S: f64 = 2e-3;
 /// Share of the acceleration limits kept free for a stop on the blended path, whatever the
 /// override reserve.
 pub const MIN_BRAKING_SHARE: f64 = 0.1;
+/// Time step (s) at which the jerk of the blended joints is sampled (the change of their
+/// acceleration over it), at most [`JERK_SAMPLES`] of them over the overlap.
+pub const JERK_STEP_S: f64 = 2e-3;
+/// Most intervals the blended jerk is sampled in.
+const JERK_SAMPLES: usize = 256;
+/// Relative margin on a sampled blended jerk over the limit, for what lies between the
+/// samples: the sampled change over one step is an average of the jerk over it.
+const JERK_MARGIN: f64 = 0.05;
+/// The lowest [`Overlap::max_scale`] two moves within their jerk limits give, their jerks
+/// adding up to twice the limit: `(2·(1 + JERK_MARGIN))^(-1/3)` = 0.7809, rounded down.
+pub const SLOWEST_SCALE: f64 = 0.78;
 
 /// How a move blends into the next one: the SRCI BlendingMode with its parameters (SI
 /// units; see the module documentation).
@@ -172,6 +193,8 @@ pub trait Leg {
     fn tcp(&self, q: &[f64; AXES]) -> Vector3<f64>;
     /// Largest rate of change of the override (1/s) the move's own reserve pays for.
     fn override_rate(&self) -> f64;
+    /// The move's JerkRate: the share of the robot's jerk limits it keeps to.
+    fn jerk_rate(&self) -> f64;
 }
 
 /// What a blend is planned from.
@@ -202,6 +225,9 @@ pub struct Overlap {
     /// Rate (1/s) at which a stop during the overlap brings the time scale to 0 within the
     /// joint limits.
     pub stop_rate: f64,
+    /// Largest time scale σ during the overlap (1 where the blended jerk keeps the limits
+    /// at full speed): `σ³·|q⃛_A + q⃛_B|` keeps every joint's jerk limit.
+    pub max_scale: f64,
 }
 
 /// Plans the overlap of `request`; `None` means an exact stop.
@@ -229,6 +255,7 @@ pub fn plan<A: Leg, B: Leg>(request: &BlendRequest<'_, A, B>) -> Option<Overlap>
             .min(request.outgoing.override_rate())
             .min(request.incoming.override_rate()),
         stop_rate,
+        max_scale: sampler.max_scale(overlap),
     })
 }
 
@@ -381,6 +408,43 @@ impl<'a, A: Leg, B: Leg> Sampler<'a, A, B> {
             .fold(f64::INFINITY, f64::min)
     }
 
+    /// The largest time scale at which the blended jerk of an overlap of `overlap` keeps
+    /// every joint's jerk limit times the higher of the two moves' JerkRates; 1 where it
+    /// does at full speed.
+    fn max_scale(&self, overlap: f64) -> f64 {
+        let l = self.request.limits;
+        let jerk_rate = self
+            .request
+            .outgoing
+            .jerk_rate()
+            .max(self.request.incoming.jerk_rate());
+        let wanted = (overlap / JERK_STEP_S).ceil();
+        // Saturating float-to-int conversion; NaN gives 0.
+        let steps = (wanted.max(1.0) as usize).min(JERK_SAMPLES);
+        let h = overlap / steps as f64;
+        let acceleration = |u: f64| -> [f64; AXES] {
+            let (a, b) = self.legs(overlap, u);
+            core::array::from_fn(|i| a.qdd[i] + b.qdd[i])
+        };
+        let mut last = acceleration(0.0);
+        let mut ratio = 0.0f64;
+        for k in 1..=steps {
+            let next = acceleration(h * k as f64);
+            for i in 0..AXES {
+                let jerk = (next[i] - last[i]).abs() / h;
+                ratio = ratio.max(jerk / (jerk_rate * l.jerk[i]));
+            }
+            last = next;
+        }
+        // One move alone keeps its limit: only a sum beyond it slows the overlap down (a
+        // NaN ratio, of no jerk limit, compares false).
+        if ratio > 1.0 + LIMIT_TOLERANCE {
+            (ratio * (1.0 + JERK_MARGIN)).cbrt().recip()
+        } else {
+            1.0
+        }
+    }
+
     /// Whether the overlap `overlap` keeps the limits; if so, the rate (1/s) at which the
     /// time scale may change during it.
     fn check(&self, overlap: f64) -> Option<f64> {
@@ -497,6 +561,10 @@ impl Leg for PathLeg<'_> {
 
     fn override_rate(&self) -> f64 {
         self.path.timing().override_rate
+    }
+
+    fn jerk_rate(&self) -> f64 {
+        self.path.timing().jerk_rate
     }
 }
 
@@ -721,5 +789,52 @@ mod tests {
         // Nothing can start before the overlap would end.
         let ramp = Blending::RampOverlap { fraction: 1.0 };
         assert_eq!(overlap_after(&a, &b, ramp, duration(&a) - 1e-3), None);
+    }
+
+    /// The blended jerk of an overlap at 100 % override: the largest change over 1 ms of
+    /// the summed accelerations of both moves, relative to each joint's jerk limit.
+    fn blended_jerk(a: &Path, b: &Path, overlap: &Overlap) -> f64 {
+        let limits = config().robot.limits_rad();
+        let step = 1e-3;
+        let acceleration = |u: f64| -> [f64; AXES] {
+            let qdd = |path: &Path, tau: f64| {
+                let (s, sd, sdd) = path.timing().profile.eval(tau);
+                path.point(s, sd, sdd, &path.target()).qdd
+            };
+            let (qa, qb) = (qdd(a, overlap.start + u), qdd(b, u));
+            core::array::from_fn(|i| qa[i] + qb[i])
+        };
+        let steps = ((duration(a) - overlap.start) / step) as usize;
+        (0..steps)
+            .flat_map(|k| {
+                let (now, next) = (
+                    acceleration(k as f64 * step),
+                    acceleration((k + 1) as f64 * step),
+                );
+                (0..AXES).map(move |i| (next[i] - now[i]).abs() / step / limits.jerk[i])
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Where A eases its braking of a joint at its jerk limit while B starts the same joint
+    /// at its jerk limit, their jerks add up to twice the limit: the overlap runs at a
+    /// scale at which the sum keeps it (not much slower), and a corner whose moves turn
+    /// different joints keeps full speed.
+    #[test]
+    fn jerks_that_add_up_slow_the_overlap_down() {
+        let a_end = shifted(home(), [0.8, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let a = joint_path(home(), a_end);
+        let b = joint_path(a_end, shifted(a_end, [0.8, 0.0, 0.0, 0.0, 0.0, 0.0]));
+        let half_ramp = Blending::RampOverlap { fraction: 0.5 };
+        let o = overlap(&a, &b, half_ramp).expect("blends");
+        let jerk = blended_jerk(&a, &b, &o);
+        assert!(jerk > 1.9, "{jerk}");
+        let kept = jerk * o.max_scale.powi(3);
+        assert!((0.9..=1.0).contains(&kept), "{} {jerk}", o.max_scale);
+
+        let (a, b) = corner();
+        let o = overlap(&a, &b, half_ramp).expect("blends");
+        assert!(blended_jerk(&a, &b, &o) <= 1.0 + 1e-9);
+        assert_eq!(o.max_scale, 1.0);
     }
 }

@@ -42,6 +42,7 @@ use crate::refinement::{InlineRefiner, Refiner, TableRequest};
 use crate::safety_filter::{Intervention, SafetyFilter};
 use crate::sequences::{Cursor, Sequence, Sequences, overlap};
 use crate::targets;
+use crate::time_scale::TimeScale;
 
 /// Joint speed (rad/s) below which the servo feedback counts as standing still.
 const REST_VELOCITY: f64 = 1e-3;
@@ -455,6 +456,12 @@ impl Executor {
     /// holds from the overlap's start, and the rate comes down to it on the way (see
     /// [`Motion`]) without changing what the servo has been sent. Held at once instead, it
     /// stepped the acceleration by up to 9 times the jerk limit in one tick.
+    ///
+    /// An overlap that must run slower than the override (its
+    /// [`max_scale`](blend::Overlap::max_scale)) needs the time of that slow-down ahead of
+    /// it, after the setpoint window: a next move that is buffered and final (not a line
+    /// waiting for its table) is decided earlier by the longest slow-down; where the time
+    /// left is still too short, the overlap runs at the lowest scale it can reach.
     fn prepare_blend(&mut self, dt: f64) {
         let Phase::Running(running) = self.motion.phase else {
             return;
@@ -468,27 +475,50 @@ impl Executor {
             .running
             .filter(|queued| queued.command.job == running.active.job)
             .and_then(|queued| Blending::of(&queued.command).ok());
+        let ramp = self.dynamics.override_ramp(running.plan.timing());
+        let anticipation = self.final_next_rate(&running, ramp.0).map_or(0.0, |rate| {
+            TimeScale::ramp_time(1.0 - blend::SLOWEST_SCALE, rate, ramp.1) + 2.0 * dt
+        });
         let handover = match blending {
             None | Some(Blending::ExactStop) => Handover::ExactStop,
             Some(_) if running.active.hold_after => Handover::ExactStop,
-            Some(_) if running.tau + lookahead < half => return,
+            Some(_) if running.tau + lookahead + anticipation < half => return,
             Some(blending) => {
-                let (rate, acceleration) = self.dynamics.override_ramp(running.plan.timing());
+                let (rate, acceleration) = ramp;
+                let scale = self.motion.time_scale();
                 // The fastest rate within the setpoint window, with the override as it is.
-                let fastest = self.motion.time_scale().fastest_rate(
-                    self.override_target,
-                    rate,
-                    acceleration,
-                    lookahead,
-                );
-                let earliest_start = running.tau + lookahead + fastest / acceleration;
-                self.plan_blend(&running, blending, earliest_start)
-                    .map_or(Handover::ExactStop, Handover::Blend)
+                let fastest =
+                    scale.fastest_rate(self.override_target, rate, acceleration, lookahead);
+                let window_end = running.tau + lookahead;
+                // σ is at rest by then, unless the override changes after the decision.
+                let settled = window_end + fastest / acceleration;
+                self.plan_blend(&running, blending, settled).map_or(
+                    Handover::ExactStop,
+                    |mut blend| {
+                        blend.schedule_slow_down(scale, running.tau, window_end, ramp, dt);
+                        Handover::Blend(blend)
+                    },
+                )
             }
         };
         if let Phase::Running(running) = &mut self.motion.phase {
             running.handover = handover;
         }
+    }
+
+    /// The override rate (1/s) of a blend of `running` (whose own is `rate`) into the next
+    /// move of its sequence, as far as the moves tell, if that move is buffered and final:
+    /// not a line whose table is still being planned (a decided blend takes no table).
+    fn final_next_rate(&self, running: &Running, rate: f64) -> Option<f64> {
+        let (sequence, next) = self.sequences.next(&Cursor::default(), self.motion.holds)?;
+        let waiting = next.table_request != 0 && next.earliest_start_tick != 0;
+        if sequence != running.active.sequence || waiting {
+            return None;
+        }
+        Some(match next.linear {
+            Some(LinearPlan::Move(line)) => rate.min(line.timing().override_rate),
+            _ => rate,
+        })
     }
 
     /// The blend of `running` into the next move of its sequence, if that is a joint or
@@ -542,6 +572,7 @@ impl Executor {
             next: ActiveMove::of(&next.command, sequence),
             plan,
             overlap,
+            slow_down_at: overlap.start,
         })
     }
 

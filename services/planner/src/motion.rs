@@ -13,6 +13,14 @@
 //! both advance on the one time scale σ until A ends. During the overlap the status reports
 //! B as the running move.
 //!
+//! An overlap whose blended jerk would exceed the jerk limits at full speed runs at most at
+//! its [`Overlap::max_scale`](crate::blend::Overlap::max_scale): from A's time
+//! [`PlannedBlend::slow_down_at`] on, σ ramps towards the lower of the override and that
+//! scale (as an override ramp does), arriving before the overlap starts whatever the
+//! override does after the decision, and stays at most there until A ends (a σ that
+//! entered the overlap still rising, below that scale where it comes to rest); then B
+//! ramps back up to the override.
+//!
 //! A stop or an interrupt during the overlap brakes on the blended path: σ goes to 0 at the
 //! blend's stop rate, which keeps every joint within its velocity and acceleration limits,
 //! the rate changing as gradually as an override ramp's. If A ends before the arm
@@ -54,6 +62,12 @@ use crate::time_scale::TimeScale;
 
 /// Wait time (s) left that counts as none, against rounding of the tick sum.
 const WAIT_TOLERANCE_S: f64 = 1e-9;
+/// Most ticks a slow-down ahead of a blend is followed for (5 s at 1 ms), to bound the
+/// decision's time (scheduling a slow-down follows it at most 11 times).
+const SLOW_DOWN_TICKS: usize = 5_000;
+/// Bisection steps for the time a slow-down ahead of a blend begins, or for the lowest
+/// scale it reaches.
+const SLOW_DOWN_BISECTIONS: usize = 10;
 
 /// The path of a running move: a straight line in joint space or of the TCP.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -203,6 +217,115 @@ pub struct PlannedBlend {
     pub plan: Path,
     /// When it starts, and the rates of the time scale during the overlap.
     pub overlap: Overlap,
+    /// The running move's time from which σ comes down to the overlap's
+    /// [`max_scale`](Overlap::max_scale): after the setpoints sent at the decision, in time
+    /// for the ramp to arrive before the overlap starts.
+    pub slow_down_at: f64,
+}
+
+impl PlannedBlend {
+    /// The target and the rate bound of the time scale's ramp while the running move, at
+    /// its time `tau`, heads into this blend, with the override at `override_target` and
+    /// the move's own ramp bounds `ramp` (rate, acceleration). The blend's own (lower) rate
+    /// holds from the overlap's start: the rate comes down to it on the way, as gradually
+    /// as a ramp changes it (τ advances at most a second per second; the executor plans
+    /// the overlap late enough for that). From [`slow_down_at`](Self::slow_down_at) on, σ
+    /// heads for the overlap's [`max_scale`](Overlap::max_scale).
+    fn ramp_toward(&self, tau: f64, override_target: f64, ramp: (f64, f64)) -> (f64, f64) {
+        let (rate, acceleration) = ramp;
+        let left = (self.overlap.start - tau).max(0.0);
+        let rate = rate.min(self.overlap.override_rate + acceleration * left);
+        let target = if tau >= self.slow_down_at {
+            override_target.min(self.overlap.max_scale)
+        } else {
+            override_target
+        };
+        (target, rate)
+    }
+
+    /// Whether the time scale, ramping from `scale` at the running move's time `tau` as
+    /// [`Motion`] ramps it (the override at `override_target`, the move's ramp bounds
+    /// `ramp`, ticks of `dt`), is at most at the overlap's `max_scale` when the overlap
+    /// starts, and does not rise past it. Once it is there after
+    /// [`slow_down_at`](Self::slow_down_at) it stays, its target being no higher; one that
+    /// takes longer than [`SLOW_DOWN_TICKS`] counts as late.
+    fn arrives(
+        &self,
+        mut scale: TimeScale,
+        mut tau: f64,
+        override_target: f64,
+        ramp: (f64, f64),
+        dt: f64,
+    ) -> bool {
+        for _ in 0..SLOW_DOWN_TICKS {
+            let there = scale.sigma.max(scale.rest_point(ramp.1)) <= self.overlap.max_scale;
+            if tau >= self.overlap.start || (there && tau >= self.slow_down_at) {
+                return there;
+            }
+            let (target, rate) = self.ramp_toward(tau, override_target, ramp);
+            tau += scale.ramp(target, rate, ramp.1, dt);
+        }
+        false
+    }
+
+    /// The [`Blend::ceiling`] of the overlap entered at the time scale `scale`, whose ramp
+    /// has σ̈ up to `acceleration`: σ still rising brakes to rest below `max_scale`.
+    fn entry_ceiling(&self, scale: TimeScale, acceleration: f64) -> f64 {
+        if self.overlap.max_scale < 1.0 && scale.rate > 0.0 {
+            self.overlap.max_scale.min(scale.rest_point(acceleration))
+        } else {
+            self.overlap.max_scale
+        }
+    }
+
+    /// Schedules the slow-down to the overlap's [`max_scale`](Overlap::max_scale) for the
+    /// time scale `scale` at the running move's time `tau`, whatever the override, and the
+    /// move's ramp bounds `ramp` (rate, acceleration), in ticks of `dt`: as late as σ
+    /// still arrives before the overlap starts, and no earlier than
+    /// A's time `earliest` (the end of the setpoints sent). Where even a slow-down from
+    /// there on arrives late, the overlap runs at the lowest scale that one reaches (1,
+    /// as without a slow-down, where it does not reach one).
+    pub fn schedule_slow_down(
+        &mut self,
+        scale: TimeScale,
+        tau: f64,
+        earliest: f64,
+        ramp: (f64, f64),
+        dt: f64,
+    ) {
+        // For the highest override: one raised after the decision must arrive, too, and a
+        // low one costs nothing, σ heading for the lower of the override and the scale.
+        let arrives = |blend: &Self| blend.arrives(scale, tau, 1.0, ramp, dt);
+        if self.overlap.max_scale >= 1.0 {
+            self.slow_down_at = self.overlap.start;
+            return;
+        }
+        self.slow_down_at = earliest;
+        if !arrives(self) {
+            // The lowest scale it reaches (1 where not even that: as without a slow-down).
+            let (mut low, mut high) = (self.overlap.max_scale, 1.0);
+            for _ in 0..SLOW_DOWN_BISECTIONS {
+                self.overlap.max_scale = 0.5 * (low + high);
+                if arrives(self) {
+                    high = self.overlap.max_scale;
+                } else {
+                    low = self.overlap.max_scale;
+                }
+            }
+            self.overlap.max_scale = high;
+            return;
+        }
+        let (mut early, mut late) = (earliest, self.overlap.start);
+        for _ in 0..SLOW_DOWN_BISECTIONS {
+            self.slow_down_at = 0.5 * (early + late);
+            if arrives(self) {
+                early = self.slow_down_at;
+            } else {
+                late = self.slow_down_at;
+            }
+        }
+        self.slow_down_at = early;
+    }
 }
 
 /// Two moves overlapping: B (active) started while A (outgoing, done) still runs.
@@ -222,6 +345,9 @@ pub struct Blend {
     overlap: Overlap,
     /// A stop brings the time scale to 0 on the blended path.
     braking: bool,
+    /// Highest time scale of the overlap: its `max_scale`, or where σ entered it still
+    /// rising, where that rise comes to rest (a slowed overlap never ramps up past it).
+    ceiling: f64,
 }
 
 /// The running move's job and what its end does.
@@ -513,7 +639,7 @@ impl Motion {
                     (0.0, blend.overlap.stop_rate, BLEND_STOP_JERK_SHARE)
                 } else {
                     (
-                        override_target,
+                        override_target.min(blend.ceiling),
                         blend.overlap.override_rate,
                         OVERRIDE_JERK_SHARE,
                     )
@@ -617,17 +743,12 @@ impl Motion {
         tick: &mut Tick<'_>,
         report: &mut impl FnMut(u32, u8, u16),
     ) {
-        let (mut rate, acceleration) = tick.dynamics.override_ramp(running.plan.timing());
-        if let Handover::Blend(blend) = running.handover {
-            // The blend's own (lower) rate holds from the overlap's start: the rate comes
-            // down to it on the way, as gradually as a ramp changes it (τ advances at most
-            // a second per second). The executor plans the overlap late enough for that.
-            let left = (blend.overlap.start - running.tau).max(0.0);
-            rate = rate.min(blend.overlap.override_rate + acceleration * left);
-        }
-        running.tau += self
-            .scale
-            .ramp(tick.override_target, rate, acceleration, tick.dt);
+        let ramp = tick.dynamics.override_ramp(running.plan.timing());
+        let (target, rate) = match running.handover {
+            Handover::Blend(blend) => blend.ramp_toward(running.tau, tick.override_target, ramp),
+            _ => (tick.override_target, ramp.0),
+        };
+        running.tau += self.scale.ramp(target, rate, ramp.1, tick.dt);
         if let Handover::Blend(blend) = running.handover
             && running.tau >= blend.overlap.start
         {
@@ -652,6 +773,7 @@ impl Motion {
                     outgoing_joints: self.point.q,
                     overlap: blend.overlap,
                     braking: false,
+                    ceiling: blend.entry_ceiling(self.scale, ramp.1),
                 });
             }
             // The sequence changed under the plan: end as planned without it.

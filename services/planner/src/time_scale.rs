@@ -33,6 +33,23 @@ impl TimeScale {
         }
     }
 
+    /// Where σ comes to rest if its rate brakes now at `acceleration` (1/s²).
+    pub fn rest_point(&self, acceleration: f64) -> f64 {
+        self.sigma + self.rate * self.rate.abs() / (2.0 * acceleration)
+    }
+
+    /// Time (s) a ramp from rest to rest takes to move σ by `distance` within the bounds
+    /// `rate` and `acceleration` (see [`ramp`](Self::ramp)), ticks aside: the rate's
+    /// trapezoid, or its triangle where the distance is too short to reach the rate.
+    pub fn ramp_time(distance: f64, rate: f64, acceleration: f64) -> f64 {
+        let distance = distance.abs();
+        if distance * acceleration >= rate * rate {
+            distance / rate + rate / acceleration
+        } else {
+            2.0 * (distance / acceleration).sqrt()
+        }
+    }
+
     /// σ approaches `target` over a tick of `dt` with `|σ̇| ≤ rate` (1/s) and `|σ̈| ≤
     /// acceleration` (1/s²), braking its rate in time to arrive at rest; returns how far the
     /// profiles' time τ advances in it. σ stays within [0, 1] and passes a target only where
@@ -145,12 +162,33 @@ mod tests {
             let arrived = arrived.unwrap_or_else(|| panic!("not at {target}: {m:?}"));
             if from_rest {
                 // From rest: `|Δσ|/rate + rate/acceleration`, within a few ticks.
-                let shortest = (target - from).abs() / rate + rate / acceleration;
+                let shortest = TimeScale::ramp_time(target - from, rate, acceleration);
                 assert!(
                     arrived as f64 * DT <= shortest + 3.0 * DT,
                     "{arrived} ticks"
                 );
             }
+        }
+    }
+
+    /// The time of a ramp from rest, short of the rate or reaching it, is what the ramp takes
+    /// to arrive on its target, within a few ticks.
+    #[test]
+    fn the_ramp_time_is_that_of_a_ramp_from_rest() {
+        let (rate, acceleration) = (0.4, 5.0);
+        // Triangles below 0.032, trapezoids above.
+        for distance in [0.001, 0.01, 0.03, 0.05, 0.2, 0.6] {
+            let mut m = TimeScale::at(1.0);
+            let target = 1.0 - distance;
+            let mut ticks = 0;
+            while (m.sigma, m.rate) != (target, 0.0) {
+                m.ramp(target, rate, acceleration, DT);
+                ticks += 1;
+                assert!(ticks < 10_000, "{distance}");
+            }
+            let time = TimeScale::ramp_time(-distance, rate, acceleration);
+            let took = ticks as f64 * DT;
+            assert!((took - time).abs() <= 3.0 * DT, "{distance}: {took} {time}");
         }
     }
 

@@ -2509,12 +2509,20 @@ mod blending {
         let line = rig.blending_line(2, [0.1, 0.05, -0.05], CORNER_DISTANCE_1R, [0.03, 0.0]);
         let back = rig.blending_line(3, [0.1, -0.08, 0.0], RAMP_OVERLAP, [1.0, 0.0]);
         let home_again = rig.move_to(4, home());
-        rig.step(&[a, line, back, home_again]);
         // Joint into line, line into line, line into joint.
-        let mut blends = 0;
-        let mut was_blending = false;
+        let (_, blends) = run_counting_blends(&mut rig, &[a, line, back, home_again]);
+        assert_eq!(blends, 3);
+        rig.assert_done_at(&[1, 2, 3, 4], home());
+    }
+
+    /// Runs `commands` (jobs 1..=n) to their end: the ticks it took and the blends on the
+    /// way.
+    fn run_counting_blends(rig: &mut Rig, commands: &[MotionCommand]) -> (usize, usize) {
+        let last = commands.len() as u32;
+        rig.step(commands);
+        let (mut blends, mut was_blending) = (0, false);
         for _ in 0..30_000 {
-            if rig.is_final(4) {
+            if rig.is_final(last) {
                 break;
             }
             rig.step(&[]);
@@ -2522,8 +2530,91 @@ mod blending {
             blends += usize::from(blending && !was_blending);
             was_blending = blending;
         }
-        assert_eq!(blends, 3);
-        rig.assert_done_at(&[1, 2, 3, 4], home());
+        (rig.trace.len(), blends)
+    }
+
+    /// Blends whose two moves' jerks add up: joint → line → line → joint at full ramp
+    /// overlaps, and a joint braked by A while B starts it on (the jerks of both at the
+    /// limit, twice the limit in sum). Their overlaps run slower, the time scale coming
+    /// down before them as an override ramp would: the jerk stays within what such a ramp
+    /// adds (before: at least 1.65 and 2.0 times the limit), and every blend still shortens
+    /// the sequence against exact stops.
+    #[test]
+    fn blends_whose_jerks_add_up_run_slower_and_keep_the_jerk_near_its_limit() {
+        let within = 1.0 + crate::motion::OVERRIDE_JERK_SHARE;
+        // (joint pair, RAMP_OVERLAP fraction)
+        for (joint_pair, fraction) in [(false, 1.0), (true, 0.5)] {
+            let sequence = |rig: &mut Rig, mode: u8| {
+                let parameter = [fraction, 0.0];
+                if joint_pair {
+                    let mut pair = same_joint_pair(rig);
+                    pair[0] = with_blending(pair[0], mode, parameter);
+                    return pair;
+                }
+                vec![
+                    rig.blending_to(1, corner(), mode, parameter),
+                    rig.blending_line(2, [0.1, 0.05, -0.05], mode, parameter),
+                    rig.blending_line(3, [0.1, -0.08, 0.0], mode, parameter),
+                    rig.move_to(4, home()),
+                ]
+            };
+            let mut exact = Rig::new();
+            let commands = sequence(&mut exact, EXACT_STOP);
+            let (exact_ticks, _) = run_counting_blends(&mut exact, &commands);
+            let mut rig = Rig::new();
+            let commands = sequence(&mut rig, RAMP_OVERLAP);
+            let (ticks, blends) = run_counting_blends(&mut rig, &commands);
+            assert_eq!(blends, commands.len() - 1);
+            assert!(ticks < exact_ticks, "{ticks} {exact_ticks}");
+            rig.assert_done(&(1..=commands.len() as u32).collect::<Vec<_>>());
+            rig.check_limits();
+            assert_jerk_within(&rig.trace, &rig.limits, DT, within);
+        }
+    }
+
+    /// A joint braked by A while B starts it on (twice the jerk limit at full speed).
+    fn same_joint_pair(rig: &mut Rig) -> Vec<MotionCommand> {
+        let on = shifted_joints(home(), [0.8, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let further = shifted_joints(on, [0.8, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        vec![
+            rig.blending_to(1, on, RAMP_OVERLAP, [0.5, 0.0]),
+            rig.move_to(2, further),
+        ]
+    }
+
+    /// An override raised after a slowed blend was decided (at 20 %, where σ needs no
+    /// slow-down) keeps the jerk near its limit: the slow-down is scheduled for any
+    /// override (scheduled for the one at the decision, a review measured 1.96 times the
+    /// limit; this case kept it either way). And an override of 0 inside a slowed overlap
+    /// halts it, and raised again it resumes (it stood for good while the overlap never
+    /// ramped up past where σ came to rest).
+    #[test]
+    fn slowed_overlaps_follow_later_override_changes() {
+        let within = 1.0 + crate::motion::OVERRIDE_JERK_SHARE;
+        let mut rig = Rig::new();
+        rig.set_override(9, 0.2);
+        let commands = same_joint_pair(&mut rig);
+        rig.step(&commands);
+        rig.run_until(20_000, |r| r.executor.status().active_progress > 10.0);
+        rig.set_override(10, 1.0);
+        rig.run_until(20_000, |r| r.is_final(2));
+        rig.assert_done(&[1, 2, 9, 10]);
+        assert_jerk_within(&rig.trace, &rig.limits, DT, within);
+
+        let mut rig = Rig::new();
+        rig.set_override(8, 0.1);
+        let commands = same_joint_pair(&mut rig);
+        rig.step(&commands);
+        rig.run_until(20_000, |r| r.executor.is_blending());
+        rig.set_override(9, 0.0);
+        rig.run_until(20_000, |r| {
+            r.trace.last().is_some_and(|p| p.qd == [0.0; AXES])
+        });
+        assert!(rig.executor.is_blending() && !rig.is_final(2));
+        rig.set_override(10, 1.0);
+        rig.run_until(20_000, |r| r.is_final(2));
+        rig.assert_done(&[1, 2, 8, 9, 10]);
+        rig.check_limits();
     }
 
     #[test]
@@ -2633,8 +2724,8 @@ mod blending {
 
             /// Joint and linear moves blended by any mode, under any override: no tick
             /// leaves a joint position, velocity or acceleration limit, nor the jerk limit
-            /// by more than two moves' jerks and an override ramp add, and every move that
-            /// was buffered ends DONE.
+            /// by more than two moves' jerks (where an overlap had no time to slow down)
+            /// and an override ramp add, and every move that was buffered ends DONE.
             #[test]
             fn random_blended_sequences_keep_the_joint_limits(
                 legs in prop::collection::vec((leg(), blending()), 2..6),
