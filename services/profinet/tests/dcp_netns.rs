@@ -206,10 +206,22 @@ fn start_capture(tshark: &Path, namespaces: &VethPair, file: &Path, filter: &str
     Running(child)
 }
 
+/// A tshark reading the capture `file`. PNIO-CM is DCE/RPC over UDP, which tshark finds by its
+/// heuristic; by default it tries the UDP port table first, so an ephemeral client port that
+/// another protocol registered (44818, EtherNet/IP) decoded our frames as that protocol and
+/// flagged them malformed.
+fn read_capture(tshark: &Path, file: &Path) -> Command {
+    let mut command = Command::new(tshark);
+    command
+        .args(["-o", "udp.try_heuristic_first:TRUE", "-r"])
+        .arg(file);
+    command
+}
+
 /// tshark's decode of the capture: one line per frame, and the numbers of malformed ones.
 fn decode(tshark: &Path, file: &Path) -> (String, String) {
-    let summary = run(Command::new(tshark).arg("-r").arg(file));
-    let malformed = run(Command::new(tshark).arg("-r").arg(file).args([
+    let summary = run(&mut read_capture(tshark, file));
+    let malformed = run(read_capture(tshark, file).args([
         "-Y",
         "_ws.malformed || _ws.expert.severity >= \"warning\"",
         "-T",
@@ -221,6 +233,24 @@ fn decode(tshark: &Path, file: &Path) -> (String, String) {
         String::from_utf8_lossy(&summary.stdout).to_string(),
         String::from_utf8_lossy(&malformed.stdout).to_string(),
     )
+}
+
+#[test]
+fn captures_decode_as_pnio_cm_whatever_port_the_client_picked() {
+    // A Connect request and its response, from a client that happened to pick port 44818.
+    let Some(tshark) = tshark() else { return };
+    let file =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/captures/connect_from_port_44818.pcap");
+    let (summary, malformed) = decode(&tshark, &file);
+    assert!(
+        summary.contains("PNIO-CM") && summary.contains("Connect response, OK"),
+        "{summary}"
+    );
+    assert!(!summary.contains("ENIP"), "{summary}");
+    assert!(
+        malformed.trim().is_empty(),
+        "malformed frames {malformed}in:\n{summary}"
+    );
 }
 
 #[test]
@@ -645,7 +675,7 @@ fn profinet_py_reads_pd_real_data_with_the_interface_and_the_port_s_link() {
         capture.interrupt_and_wait();
         let (summary, malformed) = decode(tshark, &capture_file);
         eprintln!("{summary}");
-        let decoded = run(Command::new(tshark).arg("-r").arg(&capture_file).arg("-V"));
+        let decoded = run(read_capture(tshark, &capture_file).arg("-V"));
         let decoded = String::from_utf8_lossy(&decoded.stdout);
         assert!(
             summary.contains("44 bytes, PDPortDataReal"),
@@ -673,7 +703,7 @@ fn profinet_py_reads_pd_real_data_with_the_interface_and_the_port_s_link() {
 /// The intervals between our input frames (FrameID `frame_id`) in the capture, sorted, in
 /// milliseconds.
 fn input_frame_intervals(tshark: &Path, file: &Path, frame_id: &str) -> Vec<f64> {
-    let times = run(Command::new(tshark).arg("-r").arg(file).args([
+    let times = run(read_capture(tshark, file).args([
         "-Y",
         &format!("pn_rt.frame_id == {frame_id}"),
         "-T",
@@ -785,7 +815,7 @@ fn profinet_py_connects_and_exchanges_cyclic_data_with_the_srci_module() {
         // release.ind received" (15), "consumer DHT/WDT expired" (5) when profinet-py's
         // cyclic frames stopped more than the watchdog time before its Release came, or
         // "AR device deactivated" (16) when the device was stopped before either.
-        let closed = run(Command::new(tshark).arg("-r").arg(&capture_file).args([
+        let closed = run(read_capture(tshark, &capture_file).args([
             "-Y",
             "pn_io.pdu_type.type == 4",
             "-T",
