@@ -263,7 +263,9 @@ pub struct InterpreterConfig {
 pub struct PlannerConfig {
     /// Moves the primary sequence buffers.
     pub queue_length: u16,
-    /// Share of the acceleration limit kept free for override changes during a move.
+    /// Share of the acceleration limit that pays for override changes at full speed: the
+    /// override changes the time scale by up to `reserve·a/v` per second, and a move keeps
+    /// free what its own speeds need of that (a joint move peaking below full speed less).
     pub override_reserve: f64,
     /// Longest wait of a standing arm for the time-optimal table of a line before it starts
     /// the line on constant bounds (0: at once).

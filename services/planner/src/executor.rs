@@ -566,7 +566,6 @@ impl Executor {
             corner,
             earliest_start,
             limits: &limits,
-            reserve,
         })?;
         Some(PlannedBlend {
             next: ActiveMove::of(&next.command, sequence),

@@ -15,6 +15,9 @@ use crate::profile::{DoubleS, Profile};
 const ZERO_LENGTH_RAD: f64 = 1e-12;
 /// Relative slack for a requested duration that equals the shortest one up to rounding.
 const DURATION_TOLERANCE: f64 = 1e-9;
+/// Bisection steps for the share of the acceleration held back for override changes
+/// ([`Timing::fastest_profile`]): to 2⁻¹² of the reserve.
+const RESERVE_BISECTIONS: usize = 12;
 
 /// Why a MoveAxes cannot be executed; [`code`](Self::code) is the SRCI message code.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -174,27 +177,87 @@ pub struct Timing {
 }
 
 impl Timing {
-    /// The timing of `command` with the path limits `limits`: the profile is planned with
-    /// the share `reserve` in [0, 1) of the acceleration and deceleration held back for
-    /// override changes, and stretched to the command's duration if that is positive.
+    /// The timing of `command` with the path limits `limits`: the fastest profile that
+    /// leaves room for override changes at the rate the share `reserve` in [0, 1) of the
+    /// acceleration and deceleration pays for at full speed, stretched to the command's
+    /// duration if that is positive.
     ///
-    /// With `|s̈_plan| ≤ (1 − r)·a` (`d` while braking) and `|ṡ_plan| ≤ v`, time scaling by
-    /// σ ≤ 1 with `|σ̇| ≤ r·min(a, d)/v` gives `|s̈| ≤ |s̈_plan|·σ² + |ṡ_plan|·|σ̇| ≤ max(a, d)`,
-    /// the [`braking`](PathLimits::braking) limit.
+    /// Time scaling by σ ≤ 1 gives `s̈ = s̈_plan·σ² + ṡ_plan·σ̇`, so with
+    /// `|σ̇| ≤ ω = r·min(a, d)/v` a profile that keeps `|s̈_plan| + ṡ_plan·ω` within `a`
+    /// (`d` while braking) at every instant keeps them under any override change. Holding
+    /// back the share `r` does that everywhere; the profile's acceleration is at its peak
+    /// well before its speed is ([`fastest_profile`](Self::fastest_profile)), so less of it
+    /// does too, most of all on moves that peak below the speed limit.
     pub fn plan(
         limits: PathLimits,
         reserve: f64,
         command: &MotionCommand,
     ) -> Result<Self, MoveError> {
-        let fastest = DoubleS::new(
-            limits.velocity,
-            (1.0 - reserve) * limits.acceleration,
-            (1.0 - reserve) * limits.deceleration,
-            limits.jerk,
-        );
-        let override_rate =
-            reserve * limits.acceleration.min(limits.deceleration) / limits.velocity;
+        let (fastest, override_rate) = Self::fastest_profile(limits, reserve);
         Self::with_profile(limits, Profile::DoubleS(fastest), override_rate, command)
+    }
+
+    /// The fastest double-S within `limits` that leaves room for override changes at the
+    /// rate the share `reserve` pays for at full speed (see [`plan`](Self::plan)), and that
+    /// rate (1/s). The shares of the acceleration and of the deceleration held back are the
+    /// smallest that keep `|s̈| + ṡ·r·a/v` of the profile within `a` while it speeds up and
+    /// `|s̈| + ṡ·r·d/v` within `d` while it brakes (`reserve` always does, as `ṡ ≤ v`), both
+    /// rates at least `ω = r·min(a, d)/v`. They are found by bisection, one share at a time
+    /// with the other fixed, twice round: a lower deceleration then changes the
+    /// acceleration ramp only where it changes the peak speed.
+    pub fn fastest_profile(limits: PathLimits, reserve: f64) -> (DoubleS, f64) {
+        let (a, d) = (limits.acceleration, limits.deceleration);
+        let override_rate = reserve * a.min(d) / limits.velocity;
+        let with_shares = |[accelerating, braking]: [f64; 2]| {
+            DoubleS::new(
+                limits.velocity,
+                (1.0 - accelerating) * a,
+                (1.0 - braking) * d,
+                limits.jerk,
+            )
+        };
+        let fits = |profile: &DoubleS| {
+            let (v_peak, jerk) = (profile.peak_velocity(), profile.peak_jerk());
+            // The largest |s̈_plan| + ṡ_plan·ω of a ramp to the peak `peak`: where its jerk
+            // starts to take the acceleration away, `peak²/2j` short of the peak speed,
+            // unless ω·ṡ grows faster than the jerk takes s̈ away (then bounded by the peak
+            // speed itself).
+            let during = |peak: f64, rate: f64| {
+                let short = if rate * peak <= jerk {
+                    peak * peak / (2.0 * jerk)
+                } else {
+                    0.0
+                };
+                peak + rate * (v_peak - short).max(0.0)
+            };
+            // Each ramp leaves room for the rate its own limit's reserve pays for (at least
+            // ω), so that the one ramp does not depend on the other's limit.
+            let rate = |limit: f64| reserve * limit / limits.velocity;
+            during(profile.peak_acceleration(), rate(a)) <= a
+                && during(profile.peak_deceleration(), rate(d)) <= d
+        };
+        let unreserved = with_shares([0.0; 2]);
+        if fits(&unreserved) {
+            return (unreserved, override_rate);
+        }
+        let mut shares = [reserve; 2];
+        let mut fastest = with_shares(shares);
+        for which in [0, 1, 0, 1] {
+            // Each share only lowers what both rows bound, so a share that fits stays one.
+            let (mut low, mut high) = (0.0, shares[which]);
+            for _ in 0..RESERVE_BISECTIONS {
+                let mut trial = shares;
+                trial[which] = 0.5 * (low + high);
+                let profile = with_shares(trial);
+                if fits(&profile) {
+                    (high, fastest) = (trial[which], profile);
+                } else {
+                    low = trial[which];
+                }
+            }
+            shares[which] = high;
+        }
+        (fastest, override_rate)
     }
 
     /// The timing of `command` on the fastest profile `fastest` (planned within `limits`
@@ -318,6 +381,7 @@ impl JointMove {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
     use shared_types::ipc::MotionCommandKind;
 
     fn limits() -> JointLimitsRad {
@@ -361,12 +425,18 @@ mod tests {
         assert!((m.timing().limits.deceleration - 2.0).abs() < 1e-12);
         assert!((m.timing().limits.jerk - 20.0).abs() < 1e-12);
         assert!((m.timing().override_rate - 0.2 * 2.0 / 0.5).abs() < 1e-12);
-        assert!(double_s(&m).peak_acceleration() <= 0.8 * 2.0 + 1e-12);
+        assert!(override_room_used(m.timing()) <= 1.0 + 1e-9);
+        // Its acceleration peaks at a third of the speed limit: less than the whole reserve
+        // leaves the room (computed: 1.652 of 2).
+        assert!(double_s(&m).peak_acceleration() > 0.8 * 2.0 + 0.05);
     }
 
     #[test]
     fn the_deceleration_scale_sets_the_braking_ramp_only() {
         let mut c = move_to([1.0, 0.0, -2.0, 0.0, 0.0, 0.5]);
+        // Slow enough to cruise either way: the peak speed, which sets how much of the
+        // reserve the acceleration ramp needs, does not depend on the braking then.
+        c.velocity_scale = 0.5;
         c.acceleration_scale = 0.5;
         c.deceleration_scale = 0.5;
         let equal = planned([0.0; AXES], &c);
@@ -380,13 +450,57 @@ mod tests {
             double_s(&low).peak_acceleration(),
             double_s(&equal).peak_acceleration()
         );
-        assert!(double_s(&low).peak_deceleration() <= 0.8 * 0.5 + 1e-12);
+        assert!(double_s(&low).peak_deceleration() < double_s(&equal).peak_deceleration());
+        assert!(override_room_used(low.timing()) <= 1.0 + 1e-9);
         assert!(low.timing().profile.duration() > equal.timing().profile.duration());
         // The override reserve pays for the smaller of the two.
-        assert!((low.timing().override_rate - 0.2 * 0.5 / 1.0).abs() < 1e-12);
-        // With equal scales the profile is the symmetric one of the acceleration scale.
-        let symmetric = DoubleS::new(1.0, 0.8 * 1.0, 0.8 * 1.0, 20.0);
-        assert_eq!(double_s(&equal), symmetric);
+        assert!((low.timing().override_rate - 0.2 * 0.5 / 0.5).abs() < 1e-12);
+        // With equal scales the profile is symmetric.
+        let symmetric = double_s(&equal);
+        assert_eq!(symmetric.peak_acceleration(), symmetric.peak_deceleration());
+    }
+
+    /// The largest `|s̈| + ṡ·ω` along the profile of `timing`, sampled, as a share of the
+    /// limit of the phase (acceleration while speeding up, deceleration while braking),
+    /// `ω` its override rate: at most 1 where any override change at that rate keeps the
+    /// limits.
+    fn override_room_used(timing: &Timing) -> f64 {
+        const STEPS: usize = 4000;
+        let (profile, l) = (timing.profile, timing.limits);
+        (0..=STEPS)
+            .map(|k| {
+                let (_, sd, sdd) = profile.eval(profile.duration() * k as f64 / STEPS as f64);
+                let limit = if sdd >= 0.0 {
+                    l.acceleration
+                } else {
+                    l.deceleration
+                };
+                (sdd.abs() + sd * timing.override_rate) / limit
+            })
+            .fold(0.0, f64::max)
+    }
+
+    proptest! {
+        /// The reserve is sized by the profile's own speeds: never more than the whole
+        /// reserve, never less than what keeps room for the override rate.
+        #[test]
+        fn the_reserve_leaves_room_for_the_override_rate_and_no_more(
+            velocity in 0.1f64..5.0,
+            acceleration in 0.5f64..20.0,
+            deceleration in 0.5f64..20.0,
+            jerk in 1.0f64..200.0,
+            reserve in 0.0f64..0.5,
+        ) {
+            let limits = PathLimits { velocity, acceleration, deceleration, jerk };
+            let (profile, override_rate) = Timing::fastest_profile(limits, reserve);
+            let timing = Timing { limits, profile: Profile::DoubleS(profile), override_rate, jerk_rate: 1.0 };
+            prop_assert!(override_room_used(&timing) <= 1.0 + 1e-9);
+            let kept = 1.0 - reserve;
+            let whole = DoubleS::new(velocity, kept * acceleration, kept * deceleration, jerk);
+            let none = DoubleS::new(velocity, acceleration, deceleration, jerk);
+            prop_assert!(profile.duration() <= whole.duration() * (1.0 + 1e-12));
+            prop_assert!(profile.duration() >= none.duration() * (1.0 - 1e-12));
+        }
     }
 
     #[test]

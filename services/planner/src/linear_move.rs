@@ -749,13 +749,7 @@ fn timing(
         reserve,
         timer.jerk(),
     );
-    let fastest_constant = DoubleS::new(
-        limits.velocity,
-        (1.0 - reserve) * limits.acceleration,
-        (1.0 - reserve) * limits.deceleration,
-        limits.jerk,
-    )
-    .duration();
+    let fastest_constant = Timing::fastest_profile(limits, reserve).0.duration();
     let mut fastest: Option<(TableProfile, Option<PathWarp>)> = None;
     let try_table = |fastest: &mut Option<(TableProfile, Option<PathWarp>)>,
                      samples: &PathSamples,

@@ -1573,7 +1573,8 @@ fn a_lower_deceleration_rate_slows_only_the_end_of_the_move() {
         low.len(),
         equal.len()
     );
-    // Braking uses at most 40 % of the acceleration limit (less the override reserve).
+    // Braking uses at most 40 % of the acceleration limit, less the part of the override
+    // reserve the braking ramp's speeds need (from full speed nearly all of it).
     let limit = config().robot.limits_rad().acceleration[0];
     let braking = |trace: &[JointPoint]| {
         trace[trace.len() / 2..]
@@ -1582,17 +1583,11 @@ fn a_lower_deceleration_rate_slows_only_the_end_of_the_move() {
             .fold(0.0, f64::max)
             / limit
     };
-    let reserve = 1.0 - config().main.planner.override_reserve;
-    assert!(
-        (braking(&low) - 0.4 * reserve).abs() < 1e-6,
-        "{}",
-        braking(&low)
-    );
-    assert!(
-        (braking(&equal) - 0.8 * reserve).abs() < 1e-6,
-        "{}",
-        braking(&equal)
-    );
+    let kept = 1.0 - config().main.planner.override_reserve;
+    for (trace, rate) in [(&low, 0.4), (&equal, 0.8)] {
+        let used = braking(trace) / rate;
+        assert!(used > kept - 1e-9 && used < 1.0, "{used}");
+    }
 }
 
 /// The tables of buffered lines, planned off the tick, replace the constant bounds only
