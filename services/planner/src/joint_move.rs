@@ -202,9 +202,8 @@ impl Timing {
     /// rate (1/s). The shares of the acceleration and of the deceleration held back are the
     /// smallest that keep `|s̈| + ṡ·r·a/v` of the profile within `a` while it speeds up and
     /// `|s̈| + ṡ·r·d/v` within `d` while it brakes (`reserve` always does, as `ṡ ≤ v`), both
-    /// rates at least `ω = r·min(a, d)/v`. They are found by bisection, one share at a time
-    /// with the other fixed, twice round: a lower deceleration then changes the
-    /// acceleration ramp only where it changes the peak speed.
+    /// rates at least `ω = r·min(a, d)/v`. They are found by bisection: one share for both,
+    /// then each on its own with the other fixed.
     pub fn fastest_profile(limits: PathLimits, reserve: f64) -> (DoubleS, f64) {
         let (a, d) = (limits.acceleration, limits.deceleration);
         let override_rate = reserve * a.min(d) / limits.velocity;
@@ -240,23 +239,27 @@ impl Timing {
         if fits(&unreserved) {
             return (unreserved, override_rate);
         }
-        let mut shares = [reserve; 2];
-        let mut fastest = with_shares(shares);
-        for which in [0, 1, 0, 1] {
-            // Each share only lowers what both rows bound, so a share that fits stays one.
-            let (mut low, mut high) = (0.0, shares[which]);
+        // The smallest share `high` in [0, reserve] for which `shares_of(high)` fits, and its
+        // profile; `fastest` is the fitting profile to start from.
+        let smallest = |shares_of: &dyn Fn(f64) -> [f64; 2], fastest: DoubleS| {
+            let (mut low, mut high, mut fastest) = (0.0, reserve, fastest);
             for _ in 0..RESERVE_BISECTIONS {
-                let mut trial = shares;
-                trial[which] = 0.5 * (low + high);
-                let profile = with_shares(trial);
+                let share = 0.5 * (low + high);
+                let profile = with_shares(shares_of(share));
                 if fits(&profile) {
-                    (high, fastest) = (trial[which], profile);
+                    (high, fastest) = (share, profile);
                 } else {
-                    low = trial[which];
+                    low = share;
                 }
             }
-            shares[which] = high;
-        }
+            (high, fastest)
+        };
+        // One share for both ramps first, then each on its own with the other fixed: the
+        // acceleration's over the same interval whatever the braking, so that a lower
+        // deceleration changes the acceleration ramp only where it changes the peak speed.
+        let (both, fastest) = smallest(&|share| [share; 2], with_shares([reserve; 2]));
+        let (accelerating, fastest) = smallest(&|share| [share, both], fastest);
+        let (_, fastest) = smallest(&|share| [accelerating, share], fastest);
         (fastest, override_rate)
     }
 
