@@ -239,27 +239,28 @@ impl Timing {
         if fits(&unreserved) {
             return (unreserved, override_rate);
         }
-        // The smallest share `high` in [0, reserve] for which `shares_of(high)` fits, and its
-        // profile; `fastest` is the fitting profile to start from.
-        let smallest = |shares_of: &dyn Fn(f64) -> [f64; 2], fastest: DoubleS| {
-            let (mut low, mut high, mut fastest) = (0.0, reserve, fastest);
+        // The smallest share in [0, reserve] for which `shares_of(share)` fits, with its
+        // profile; `start`, a share that fits with its profile, where no trial does.
+        let smallest = |shares_of: &dyn Fn(f64) -> [f64; 2], start: (f64, DoubleS)| {
+            let (mut low, mut high, mut found) = (0.0, reserve, start);
             for _ in 0..RESERVE_BISECTIONS {
                 let share = 0.5 * (low + high);
                 let profile = with_shares(shares_of(share));
                 if fits(&profile) {
-                    (high, fastest) = (share, profile);
+                    high = share;
+                    found = (share, profile);
                 } else {
                     low = share;
                 }
             }
-            (high, fastest)
+            found
         };
         // One share for both ramps first, then each on its own with the other fixed: the
         // acceleration's over the same interval whatever the braking, so that a lower
         // deceleration changes the acceleration ramp only where it changes the peak speed.
-        let (both, fastest) = smallest(&|share| [share; 2], with_shares([reserve; 2]));
-        let (accelerating, fastest) = smallest(&|share| [share, both], fastest);
-        let (_, fastest) = smallest(&|share| [accelerating, share], fastest);
+        let (both, fastest) = smallest(&|share| [share; 2], (reserve, with_shares([reserve; 2])));
+        let (accelerating, fastest) = smallest(&|share| [share, both], (both, fastest));
+        let (_, fastest) = smallest(&|share| [accelerating, share], (both, fastest));
         (fastest, override_rate)
     }
 

@@ -83,7 +83,7 @@ use crate::kinematics::selection::{ConfigModes, ModeError, TurnMode};
 use crate::kinematics::turns::TurnNumbers;
 use crate::kinematics::{ArmConfig, ArmGeometry, Kinematics};
 use crate::path_warp::PathWarp;
-use crate::profile::{DoubleS, Profile};
+use crate::profile::Profile;
 use crate::scale_brake::{COORDINATES, ScaleLimits};
 use crate::topp::{self, JerkBound, PathSamples, PathTimer, TableProfile, ToppLimits};
 use crate::wrist_interpolation::{WristInterpolation, WristPathError};
@@ -676,13 +676,7 @@ fn path_limits(
         let velocity = fastest * step as f64 / SPEED_STEPS as f64;
         for split in JERK_SPLITS {
             let limits = bounds.at(command, &cartesian, velocity, split);
-            let duration = DoubleS::new(
-                limits.velocity,
-                (1.0 - reserve) * limits.acceleration,
-                (1.0 - reserve) * limits.deceleration,
-                limits.jerk,
-            )
-            .duration();
+            let duration = Timing::fastest_profile(limits, reserve).0.duration();
             if best.is_none_or(|(shortest, _)| duration < shortest) {
                 best = Some((duration, limits));
             }
@@ -1400,12 +1394,7 @@ mod tests {
             panic!("{:?}", m.timing().profile);
         };
         let l = m.timing().limits;
-        let constant = DoubleS::new(
-            l.velocity,
-            0.8 * l.acceleration,
-            0.8 * l.deceleration,
-            l.jerk,
-        );
+        let (constant, _) = Timing::fastest_profile(l, 0.2);
         assert!(table.duration() < constant.duration());
         setup.check_limits(&setup.run(&m, start));
     }
