@@ -272,29 +272,30 @@ pub fn plan<A: Leg, B: Leg>(request: &BlendRequest<'_, A, B>) -> Option<Overlap>
         return Some(longer);
     }
     // A longer overlap takes in more of both moves' jerk phases: a shorter one that needs
-    // less of a slow-down may save more time than the longer one slowed.
-    // The time scale ramps at the moves' own override rates.
+    // less of a slow-down may save more time than the longer one slowed. The time scale
+    // ramps at the moves' own override rates.
     let ramp_rate = request
         .outgoing
         .override_rate()
         .min(request.incoming.override_rate());
-    let (mut best, mut saving) = (longest_kept, longer.saving(longest_kept, ramp_rate));
+    let longer_saving = longer.saving(longest_kept, ramp_rate);
+    let (mut best, mut saving) = (longest_kept, longer_saving);
     let scales = sampler.shorter_max_scales(longest_kept);
     for (k, &max_scale) in scales.iter().enumerate().skip(1) {
         let overlap = longest_kept * k as f64 / SHORTER_OVERLAPS as f64;
-        let shorter = Overlap {
+        let candidate = Overlap {
             max_scale,
             ..longer
-        };
-        if shorter.saving(overlap, ramp_rate) > saving {
-            (best, saving) = (overlap, shorter.saving(overlap, ramp_rate));
+        }
+        .saving(overlap, ramp_rate);
+        if candidate > saving {
+            (best, saving) = (overlap, candidate);
         }
     }
     if best >= longest_kept {
         return Some(longer);
     }
     // The shorter one as sampled in full must still save more.
-    let longer_saving = longer.saving(longest_kept, ramp_rate);
     match planned(best) {
         Some(shorter) if shorter.saving(best, ramp_rate) > longer_saving => Some(shorter),
         _ => Some(longer),
@@ -473,32 +474,32 @@ impl<'a, A: Leg, B: Leg> Sampler<'a, A, B> {
         // Saturating float-to-int conversion; NaN gives 0.
         let steps = (wanted.max(1.0) as usize).min(JERK_SAMPLES);
         let h = overlap / steps as f64;
-        let acceleration = |u: f64| -> [f64; AXES] {
-            let (a, b) = self.legs(overlap, u);
+        scale_for_jerk(self.jerk_ratio(steps, h, |k| {
+            let (a, b) = self.legs(overlap, h * k as f64);
             core::array::from_fn(|i| a.qdd[i] + b.qdd[i])
-        };
-        let mut last = acceleration(0.0);
-        let mut ratio = 0.0f64;
-        for k in 1..=steps {
-            let next = acceleration(h * k as f64);
-            ratio = ratio.max(self.jerk_ratio(&last, &next, h));
-            last = next;
-        }
-        scale_for_jerk(ratio)
+        }))
     }
 
-    /// The largest blended jerk between the summed accelerations `last` and `next`, `h`
-    /// apart, over the jerk limits times the higher of the two moves' JerkRates.
-    fn jerk_ratio(&self, last: &[f64; AXES], next: &[f64; AXES], h: f64) -> f64 {
-        let l = self.request.limits;
+    /// The largest blended jerk over `steps` intervals of `h`, from the summed accelerations
+    /// `acceleration(k)` at their ends, over the jerk limits times the higher of the two
+    /// moves' JerkRates.
+    fn jerk_ratio(&self, steps: usize, h: f64, acceleration: impl Fn(usize) -> [f64; AXES]) -> f64 {
         let jerk_rate = self
             .request
             .outgoing
             .jerk_rate()
             .max(self.request.incoming.jerk_rate());
-        (0..AXES).fold(0.0f64, |ratio, i| {
-            ratio.max((next[i] - last[i]).abs() / h / (jerk_rate * l.jerk[i]))
-        })
+        let limit = self.request.limits.jerk.map(|j| jerk_rate * j);
+        let mut last = acceleration(0);
+        let mut ratio = 0.0f64;
+        for k in 1..=steps {
+            let next = acceleration(k);
+            for i in 0..AXES {
+                ratio = ratio.max((next[i] - last[i]).abs() / h / limit[i]);
+            }
+            last = next;
+        }
+        ratio
     }
 
     /// [`max_scale`](Self::max_scale) of the overlaps of `k/SHORTER_OVERLAPS` of `longest`
@@ -512,16 +513,12 @@ impl<'a, A: Leg, B: Leg> Sampler<'a, A, B> {
         let a: [[f64; AXES]; GRID + 1] =
             core::array::from_fn(|m| self.outgoing(first + h * m as f64).qdd);
         let b: [[f64; AXES]; GRID + 1] = core::array::from_fn(|m| self.incoming(h * m as f64).qdd);
-        let sum = |start: usize, n: usize| -> [f64; AXES] {
-            core::array::from_fn(|i| a[start + n][i] + b[n][i])
-        };
         core::array::from_fn(|k| {
             let steps = k * GRID_PER_SHARE;
             let start = GRID - steps;
-            let ratio = (1..=steps).fold(0.0f64, |ratio, n| {
-                ratio.max(self.jerk_ratio(&sum(start, n - 1), &sum(start, n), h))
-            });
-            scale_for_jerk(ratio)
+            scale_for_jerk(self.jerk_ratio(steps, h, |n| {
+                core::array::from_fn(|i| a[start + n][i] + b[n][i])
+            }))
         })
     }
 

@@ -731,7 +731,13 @@ fn timing(
     arm: &Arm<'_>,
     reserve: f64,
 ) -> Result<(Timing, Option<PathWarp>), LinearError> {
-    let constant = Timing::plan(limits, reserve, command);
+    let (fastest_constant, constant_rate) = Timing::fastest_profile(limits, reserve);
+    let constant = Timing::with_profile(
+        limits,
+        Profile::DoubleS(fastest_constant),
+        constant_rate,
+        command,
+    );
     let Some(timer) = arm.timer else {
         return Ok((constant?, None));
     };
@@ -743,13 +749,12 @@ fn timing(
         reserve,
         timer.jerk(),
     );
-    let fastest_constant = Timing::fastest_profile(limits, reserve).0.duration();
     let mut fastest: Option<(TableProfile, Option<PathWarp>)> = None;
     let try_table = |fastest: &mut Option<(TableProfile, Option<PathWarp>)>,
                      samples: &PathSamples,
                      candidate: &ToppLimits,
                      warp: Option<PathWarp>| {
-        let longest = fastest.map_or(fastest_constant, |(t, _)| t.duration());
+        let longest = fastest.map_or(fastest_constant.duration(), |(t, _)| t.duration());
         match timer.time(samples, candidate, longest) {
             Ok(table) if table.duration() < longest => *fastest = Some((table, warp)),
             Ok(_) | Err(topp::ToppError::NotFaster(_)) => {}
