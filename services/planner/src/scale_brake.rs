@@ -84,6 +84,12 @@ const _: () = assert!(
     RUN_OUT_RELEASE_SHARE >= crate::motion::OVERRIDE_JERK_SHARE
         && RUN_OUT_RELEASE_SHARE <= RELEASE_SHARE * MARGIN
 );
+/// Share of a coordinate's jerk limit that the release at the start of a run-out takes at
+/// least while σ̇ falls (a stop during an override ramp towards a lower override), where the
+/// table's jerk and the ramp's cross term `3·σ·σ̇·q̈ₜ` leave less than
+/// [`RUN_OUT_RELEASE_SHARE`] within 1 + that share of the limit: such a release takes at
+/// most twice as long as one at that share.
+pub const FALLING_RELEASE_FLOOR: f64 = 0.5 * RUN_OUT_RELEASE_SHARE;
 /// Table rates below this count as standing.
 const MOVING: f64 = 1e-9;
 
@@ -237,9 +243,17 @@ fn bounds(
         if v.abs() > MOVING {
             // As σ → 0 the table's share `used` vanishes: what is left for σ̈ then.
             bounds.release_jerk = bounds.release_jerk.min(RELEASE_SHARE * j / v.abs());
-            bounds.least_release = bounds
-                .least_release
-                .min(RUN_OUT_RELEASE_SHARE * limits.jerk[i] / v.abs());
+            // Releasing a falling σ̇ more slowly only lowers σ further: there the release
+            // keeps the table's jerk and its own within 1 + RUN_OUT_RELEASE_SHARE of the
+            // limit, down to the floor's share.
+            let share = if sigma_rate < 0.0 {
+                let used = used.abs().max(end.1.abs()) / limits.jerk[i];
+                (1.0 + RUN_OUT_RELEASE_SHARE - used)
+                    .clamp(FALLING_RELEASE_FLOOR, RUN_OUT_RELEASE_SHARE)
+            } else {
+                RUN_OUT_RELEASE_SHARE
+            };
+            bounds.least_release = bounds.least_release.min(share * limits.jerk[i] / v.abs());
         }
     }
     // Where the table's own jerk leaves room only for taking the deceleration back, it is
@@ -390,6 +404,49 @@ mod tests {
             let farthest = 0.6 + rate.max(0.0).powi(2) / (2.0 * RUN_OUT_RELEASE_SHARE * j);
             assert!(highest <= farthest + 1e-9, "{highest} > {farthest}");
         }
+    }
+
+    /// A stop during a ramp towards a lower override, where the table brakes at its full
+    /// jerk: the release of the falling σ̇ keeps the table's jerk, the ramp's cross term
+    /// `3·σ·σ̇·q̈ₜ` and its own within 1 + [`RUN_OUT_RELEASE_SHARE`] of the limit (at
+    /// that share of its own it took 1.63 times the limit), and still ends with σ above 0.
+    #[test]
+    fn a_run_out_of_a_falling_rate_keeps_the_jerk_the_table_and_the_ramp_leave() {
+        let j = 5.0;
+        let table = TableRates {
+            velocity: [1.0; COORDINATES],
+            acceleration: [-1.5; COORDINATES],
+            jerk: [j; COORDINATES],
+            normal: [0.0; COORDINATES],
+        };
+        let (sigma, rate) = (0.9, -0.5);
+        let mut b = ScaleBrake::new(0.5, sigma, rate, 1.0, limits(2.0, j));
+        let used = sigma.powi(3) * j + 3.0 * sigma * rate * -1.5;
+        assert!(
+            used > j,
+            "{used}: the case needs the table and the ramp beyond the limit"
+        );
+        b.advance(DT, || table);
+        assert_eq!(b.run_out, Some(true));
+        let release = (b.sigma_rate() - rate) / DT;
+        assert!(release > 0.0);
+        let jerk = used + release * table.velocity[0];
+        assert!(
+            jerk <= (1.0 + RUN_OUT_RELEASE_SHARE) * j * (1.0 + 1e-9),
+            "{} times the limit",
+            jerk / j
+        );
+        for tick in 0..10_000 {
+            if b.sigma_rate() == 0.0 {
+                break;
+            }
+            assert!(tick < 9_999, "never released: {b:?}");
+            b.advance(DT, || table);
+        }
+        assert!(
+            b.sigma() > 0.0 && b.tau() < 1.0,
+            "not released before the end"
+        );
     }
 
     proptest::proptest! {
