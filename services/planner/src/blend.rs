@@ -278,16 +278,12 @@ pub fn plan<A: Leg, B: Leg>(request: &BlendRequest<'_, A, B>) -> Option<Overlap>
         .outgoing
         .override_rate()
         .min(request.incoming.override_rate());
-    let longer_saving = longer.saving(longest_kept, ramp_rate);
+    let longer_saving = time_saved(longest_kept, longer.max_scale, ramp_rate);
     let (mut best, mut saving) = (longest_kept, longer_saving);
     let scales = sampler.shorter_max_scales(longest_kept);
     for (k, &max_scale) in scales.iter().enumerate().skip(1) {
         let overlap = longest_kept * k as f64 / SHORTER_OVERLAPS as f64;
-        let candidate = Overlap {
-            max_scale,
-            ..longer
-        }
-        .saving(overlap, ramp_rate);
+        let candidate = time_saved(overlap, max_scale, ramp_rate);
         if candidate > saving {
             (best, saving) = (overlap, candidate);
         }
@@ -297,24 +293,23 @@ pub fn plan<A: Leg, B: Leg>(request: &BlendRequest<'_, A, B>) -> Option<Overlap>
     }
     // The shorter one as sampled in full must still save more.
     match planned(best) {
-        Some(shorter) if shorter.saving(best, ramp_rate) > longer_saving => Some(shorter),
+        Some(shorter) if time_saved(best, shorter.max_scale, ramp_rate) > longer_saving => {
+            Some(shorter)
+        }
         _ => Some(longer),
     }
 }
 
-impl Overlap {
-    /// Time (s) the overlap of `length` saves against an exact stop, estimated: its length,
-    /// less what running it at [`max_scale`](Self::max_scale) costs, and the ramps of the
-    /// time scale down to that and back at `ramp_rate` (1/s; the ramps' own jerk-limited
-    /// rounding left out).
-    fn saving(&self, length: f64, ramp_rate: f64) -> f64 {
-        let scale = self.max_scale;
-        if scale >= 1.0 {
-            return length;
-        }
-        let ramps = (1.0 - scale).powi(2) / ramp_rate;
-        length - length * (1.0 / scale - 1.0) - ramps
+/// Time (s) an overlap of `length` run at the time scale `max_scale` saves against an exact
+/// stop, estimated: its length, less what running it at that scale costs, and the ramps of
+/// the time scale down to that and back at `ramp_rate` (1/s; the ramps' own jerk-limited
+/// rounding left out).
+fn time_saved(length: f64, max_scale: f64, ramp_rate: f64) -> f64 {
+    if max_scale >= 1.0 {
+        return length;
     }
+    let ramps = (1.0 - max_scale).powi(2) / ramp_rate;
+    length - length * (1.0 / max_scale - 1.0) - ramps
 }
 
 /// Joints along one move at equal time steps, to give each path evaluation a neighbour.

@@ -181,9 +181,9 @@ impl ScaleBrake {
         let t = self.duration;
         if run_out {
             // The time scale is held from here. A stop during an override ramp first
-            // brings σ̇ to 0: within the limits where the table's jerk leaves room, and at
-            // least as fast as the ramp changed it, so a ramp towards a higher override
-            // ends below it (σ ≤ 1 holds).
+            // brings σ̇ to 0: within the limits where the table's jerk leaves room; a
+            // rising σ̇ at least as fast as the ramp changed it, so a ramp towards a higher
+            // override ends below it (σ ≤ 1 holds), a falling one at least at the floor.
             let (least, most) = (b.least_release / t, b.release_jerk / t);
             self.brake.set_limits(
                 0.0,

@@ -148,7 +148,8 @@ pub fn time(
 /// repairs do not settle). Held, it always holds `s⃛ = 0`, which no pass runs out of, but
 /// the passes are slower where the two terms would cancel: `rc bench motion` (seed 1), 100
 /// lines against their jerk-limited optimum, held always: 30 over 1.02, free first and held
-/// where free found no table: 19, no line slower.
+/// where free found no table: 18, 1.05 % less time in sum, 12 lines slower by at most
+/// 0.055 %.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Hold {
     Free,

@@ -140,10 +140,10 @@ fn it_finds_the_optimum_of_the_conic_problem() {
 }
 
 /// Free of the hold on `s̈`, the passes may let `q'·s⃛` answer what `q'''·ṡ³ + 3·q''·ṡ·s̈`
-/// take beyond a joint's jerk limit. On these 16 wavy paths 12 tables took up to 11 % less
-/// time than held everywhere, 3 took 1.6 to 6.9 % more, 3.7 % less in sum. (Timing both and
-/// taking the faster, 4.3 % less, nearly doubled a line's planning time in `rc bench motion`
-/// with the same durations of its lines.)
+/// take beyond a joint's jerk limit. On these 16 wavy paths 13 tables took less time than
+/// held everywhere (up to 11 %), 3 took 1.6 to 6.9 % more, 3.7 % less in sum. (Timing both
+/// and taking the faster, 4.3 % less, raised a line's planning time in `rc bench motion`
+/// from 41 to 62 ms at the median, with the same durations of its lines.)
 #[test]
 fn free_passes_are_faster_where_the_jerk_terms_may_cancel() {
     let mut runner = proptest::test_runner::TestRunner::deterministic();
