@@ -26,6 +26,7 @@ pub mod joint_move;
 pub mod kinematics;
 pub mod linear_move;
 pub mod motion;
+pub mod path_stop;
 pub mod path_warp;
 pub mod profile;
 pub mod queue;

@@ -55,6 +55,7 @@ use crate::brake::PathBrake;
 use crate::cartesian_path;
 use crate::joint_move::{JointMove, Plan, Timing};
 use crate::linear_move::{LinearMove, LinearPlan, TcpLimits};
+use crate::path_stop::{PREDICTION_STEP_S, PathStop};
 use crate::profile::Profile;
 use crate::scale_brake::{COORDINATES, ScaleBrake, TableRates};
 use crate::sequences::{Cursor, Holds, Sequence, Sequences};
@@ -113,13 +114,41 @@ impl Path {
     /// profile's end, where the profile stands).
     pub fn table_rates(&self, tau: f64, step: f64, previous: &[f64; AXES]) -> TableRates {
         let profile = &self.timing().profile;
+        let step = if tau + step <= profile.duration() {
+            step
+        } else {
+            -step
+        };
+        self.rates(|t| profile.eval(tau + t), step, previous)
+    }
+
+    /// The rates as [`table_rates`](Self::table_rates) gives them, of a profile that passes
+    /// the path parameter `s` at the constant `speed` (1/s).
+    pub fn cruise_rates(
+        &self,
+        s: f64,
+        speed: f64,
+        step: f64,
+        previous: &[f64; AXES],
+    ) -> TableRates {
+        self.rates(|t| (s + speed * t, speed, 0.0), step, previous)
+    }
+
+    /// The rates of the profile `state` (`(s, ṡ, s̈)` a time after now) now, the jerk over
+    /// the following `step` s.
+    fn rates(
+        &self,
+        state: impl Fn(f64) -> (f64, f64, f64),
+        step: f64,
+        previous: &[f64; AXES],
+    ) -> TableRates {
         // |p'| and |p''| of the TCP's path at s.
         let tcp = |s: f64| match self {
             Self::Joint(_) => (0.0, 0.0),
             Self::Linear(m) => m.tcp_path_derivatives(s),
         };
-        let at = |tau: f64| {
-            let (s, sd, sdd) = profile.eval(tau);
+        let at = |t: f64| {
+            let (s, sd, sdd) = state(t);
             let point = self.point(s, sd, sdd, previous);
             let (speed, curvature) = tcp(s);
             let mut velocity = [speed * sd; COORDINATES];
@@ -130,13 +159,8 @@ impl Path {
             normal[AXES] = curvature * sd * sd;
             (velocity, acceleration, normal)
         };
-        let (velocity, acceleration, normal) = at(tau);
-        let step = if tau + step <= profile.duration() {
-            step
-        } else {
-            -step
-        };
-        let (_, acceleration_next, _) = at(tau + step);
+        let (velocity, acceleration, normal) = at(0.0);
+        let (_, acceleration_next, _) = at(step);
         TableRates {
             jerk: core::array::from_fn(|i| (acceleration_next[i] - acceleration[i]) / step),
             velocity,
@@ -151,6 +175,9 @@ impl Path {
 pub enum Stop {
     /// A profile planned on constant path limits brakes `s` with them.
     Path(PathBrake),
+    /// A time-optimal table brakes its path parameter within the limits at the current
+    /// point, as long as that stays slower than the table there ([`PathStop`]).
+    OnPath(PathStop),
     /// A time-optimal table brakes its time scale within the limits at the current point.
     TimeScale(ScaleBrake),
 }
@@ -548,10 +575,26 @@ impl Motion {
     }
 
     /// A stop of `plan` from its state at `tau` under the current time scale: a table (of a
-    /// Cartesian path) brakes its time scale, a profile on constant bounds brakes `s`.
+    /// Cartesian path) brakes its path parameter where that stays below the table
+    /// ([`PathStop`]), else its time scale; a profile on constant bounds brakes `s`.
     fn stop(&self, plan: &Path, tau: f64) -> Stop {
         let timing = plan.timing();
         if let (Profile::Table(table), Path::Linear(m)) = (&timing.profile, plan) {
+            let (s, sd, sdd) = table.eval(tau);
+            let (sigma, rate) = (self.scale.sigma, self.scale.rate);
+            let state = (s, sd * sigma, sdd * sigma * sigma + sd * rate);
+            let previous = self.point.q;
+            if let Some(stop) =
+                PathStop::new(state, sigma, table.peak_velocity(), *m.scale_limits()).filter(
+                    |stop| {
+                        stop.stays_below(&timing.profile, |s, speed| {
+                            plan.cruise_rates(s, speed, PREDICTION_STEP_S, &previous)
+                        })
+                    },
+                )
+            {
+                return Stop::OnPath(stop);
+            }
             return Stop::TimeScale(ScaleBrake::new(
                 tau,
                 self.scale.sigma,
@@ -581,6 +624,27 @@ impl Motion {
                 self.path_position = brake.s;
                 self.path_rate = (brake.v, brake.a);
                 brake.is_stopped()
+            }
+            Stop::OnPath(brake) => {
+                brake.advance(dt, |s, speed| {
+                    plan.cruise_rates(s, speed, dt, &self.point.q)
+                });
+                let (s, sd, sdd) = brake.state();
+                self.point = plan.point(s, sd, sdd, &self.point.q);
+                self.path_position = s;
+                self.path_rate = (sd, sdd);
+                let handover = match &plan {
+                    Path::Linear(m) => brake.handover(&m.timing().profile, *m.scale_limits()),
+                    Path::Joint(_) => None,
+                };
+                if let Some(handover) = handover {
+                    self.scale.sigma = handover.sigma();
+                    self.scale.rate = handover.sigma_rate();
+                    stop = Stop::TimeScale(handover);
+                    false
+                } else {
+                    brake.is_stopped()
+                }
             }
             Stop::TimeScale(brake) => {
                 let tau = brake.tau();

@@ -141,6 +141,22 @@ impl ScaleBrake {
         }
     }
 
+    /// Starts braking as [`new`](Self::new) does, but never runs the profile out: for a
+    /// profile that does not end at rest, such as the constant path speed a stop on the
+    /// path brakes from (see [`motion`](crate::motion)'s `Stop::OnPath`).
+    pub fn without_run_out(
+        tau: f64,
+        sigma: f64,
+        sigma_rate: f64,
+        duration: f64,
+        limits: ScaleLimits,
+    ) -> Self {
+        Self {
+            run_out: Some(false),
+            ..Self::new(tau, sigma, sigma_rate, duration, limits)
+        }
+    }
+
     /// The profile time τ (s).
     pub fn tau(&self) -> f64 {
         self.brake.s * self.duration
@@ -306,26 +322,41 @@ impl Bounds {
 }
 
 #[cfg(test)]
+impl ScaleLimits {
+    /// The same acceleration and jerk limit for every coordinate.
+    pub(crate) fn uniform(acceleration: f64, jerk: f64) -> Self {
+        Self {
+            acceleration: [acceleration; COORDINATES],
+            jerk: [jerk; COORDINATES],
+        }
+    }
+}
+
+#[cfg(test)]
+impl TableRates {
+    /// A table cruising with `velocity` in every coordinate.
+    pub(crate) fn cruise(velocity: f64) -> Self {
+        Self {
+            velocity: [velocity; COORDINATES],
+            acceleration: [0.0; COORDINATES],
+            jerk: [0.0; COORDINATES],
+            normal: [0.0; COORDINATES],
+        }
+    }
+}
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
     const DT: f64 = 1e-3;
 
     fn limits(a: f64, j: f64) -> ScaleLimits {
-        ScaleLimits {
-            acceleration: [a; COORDINATES],
-            jerk: [j; COORDINATES],
-        }
+        ScaleLimits::uniform(a, j)
     }
 
-    /// A table cruising with `velocity` in every coordinate.
     fn cruise(velocity: f64) -> TableRates {
-        TableRates {
-            velocity: [velocity; COORDINATES],
-            acceleration: [0.0; COORDINATES],
-            jerk: [0.0; COORDINATES],
-            normal: [0.0; COORDINATES],
-        }
+        TableRates::cruise(velocity)
     }
 
     /// Brakes a cruising table and checks the commanded rates every tick; returns the
