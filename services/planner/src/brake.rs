@@ -166,6 +166,26 @@ impl PathBrake {
     }
 }
 
+/// The shortest stop (s) of one coordinate from velocity `velocity` and acceleration
+/// `acceleration` within the acceleration and jerk limits `a_max` and `j_max`, path or no
+/// path: its acceleration goes to the deceleration limit (or as far as the speed leaves room
+/// for) and back to 0 as the speed reaches 0. The slowest joint's is a lower bound of any
+/// stop of the arm.
+pub fn shortest_stop_time(velocity: f64, acceleration: f64, a_max: f64, j_max: f64) -> f64 {
+    let (v, a) = if velocity < 0.0 {
+        (-velocity, -acceleration)
+    } else {
+        (velocity, acceleration)
+    };
+    let hold = (v + a * a / (2.0 * j_max) - a_max * a_max / j_max) / a_max;
+    if hold >= 0.0 {
+        (a + a_max) / j_max + hold + a_max / j_max
+    } else {
+        let peak = (j_max * v + 0.5 * a * a).sqrt();
+        (a + 2.0 * peak) / j_max
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,6 +212,28 @@ mod tests {
             prev = b;
         }
         panic!("never stopped: {b:?}");
+    }
+
+    /// The brake on constant limits is the time-optimal stop the lower bound describes:
+    /// from cruise, speeding up, braking already, and too slow to reach full deceleration.
+    #[test]
+    fn the_shortest_stop_time_is_the_brakes_on_constant_limits() {
+        let (a_max, j_max, dt) = (2.0, 10.0, 1e-4);
+        for (v, a) in [
+            (0.5, 0.0),
+            (0.3, 1.5),
+            (0.4, -1.0),
+            (0.02, 0.0),
+            (0.02, 0.5),
+        ] {
+            let (ticks, _) = brake_to_rest(PathBrake::new(0.0, v, a, a_max, j_max), dt);
+            let bound = shortest_stop_time(v, a, a_max, j_max);
+            assert!(
+                ((ticks as f64) * dt - bound).abs() < 2.0 * dt,
+                "{v} {a}: {ticks} {bound}"
+            );
+            assert_eq!(bound, shortest_stop_time(-v, -a, a_max, j_max));
+        }
     }
 
     #[test]

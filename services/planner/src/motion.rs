@@ -182,6 +182,118 @@ pub enum Stop {
     TimeScale(ScaleBrake),
 }
 
+/// One tick of a [`Stop`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StopTick {
+    /// The point commanded.
+    pub point: JointPoint,
+    /// The profile parameter there (the path position unless a line's table runs on the
+    /// joints' pace) and its rates.
+    pub position: f64,
+    pub rate: (f64, f64),
+    /// Whether the arm stands.
+    pub stopped: bool,
+}
+
+impl Stop {
+    /// A stop of `plan` from its state at profile time `tau` under the time scale `scale`,
+    /// the point last commanded at `previous`: a table (of a Cartesian path) brakes its path
+    /// parameter where that stays below the table ([`PathStop`]), else its time scale; a
+    /// profile on constant bounds brakes `s`.
+    pub fn of(plan: &Path, tau: f64, scale: TimeScale, previous: &[f64; AXES]) -> Self {
+        let timing = plan.timing();
+        let (s, sd, sdd) = timing.profile.eval(tau);
+        // Same (s, ṡ, s̈) as the point last commanded, so the stop is continuous.
+        let state = (
+            s,
+            sd * scale.sigma,
+            sdd * scale.sigma * scale.sigma + sd * scale.rate,
+        );
+        let (Profile::Table(table), Path::Linear(m)) = (&timing.profile, plan) else {
+            let limits = timing.limits;
+            let (s, sd, sdd) = state;
+            return Self::Path(PathBrake::new(s, sd, sdd, limits.braking(), limits.jerk));
+        };
+        PathStop::new(state, scale.sigma, table.peak_velocity(), *m.scale_limits())
+            .filter(|stop| {
+                stop.stays_below(&timing.profile, |s, speed| {
+                    plan.cruise_rates(s, speed, PREDICTION_STEP_S, previous)
+                })
+            })
+            .map_or_else(
+                || {
+                    Self::TimeScale(ScaleBrake::new(
+                        tau,
+                        scale.sigma,
+                        scale.rate,
+                        table.duration(),
+                        *m.scale_limits(),
+                    ))
+                },
+                Self::OnPath,
+            )
+    }
+
+    /// Advances `dt` seconds of `plan` from the point last commanded at `previous`; a stop
+    /// of the time scale keeps `scale` on it.
+    pub fn advance(
+        &mut self,
+        plan: &Path,
+        dt: f64,
+        scale: &mut TimeScale,
+        previous: &[f64; AXES],
+    ) -> StopTick {
+        let at = |(s, sd, sdd): (f64, f64, f64), stopped: bool| StopTick {
+            point: plan.point(s, sd, sdd, previous),
+            position: s,
+            rate: (sd, sdd),
+            stopped,
+        };
+        match self {
+            Self::Path(brake) => {
+                brake.advance(dt);
+                at((brake.s, brake.v, brake.a), brake.is_stopped())
+            }
+            Self::OnPath(brake) => {
+                brake.advance(dt, |s, speed| plan.cruise_rates(s, speed, dt, previous));
+                let tick = at(brake.state(), brake.is_stopped());
+                let handover = match plan {
+                    Path::Linear(m) => brake.handover(&m.timing().profile, *m.scale_limits()),
+                    Path::Joint(_) => None,
+                };
+                if let Some(handover) = handover {
+                    *scale = TimeScale {
+                        sigma: handover.sigma(),
+                        rate: handover.sigma_rate(),
+                    };
+                    *self = Self::TimeScale(handover);
+                }
+                tick
+            }
+            Self::TimeScale(brake) => {
+                let tau = brake.tau();
+                brake.advance(dt, || plan.table_rates(tau, dt, previous));
+                *scale = TimeScale {
+                    sigma: brake.sigma(),
+                    rate: brake.sigma_rate(),
+                };
+                let stopped = brake.is_stopped();
+                at(scaled(plan, brake.tau(), *scale), stopped)
+            }
+        }
+    }
+}
+
+/// `(s, ṡ, s̈)` of `plan` at profile time `tau` under the time scale `scale`.
+fn scaled(plan: &Path, tau: f64, scale: TimeScale) -> (f64, f64, f64) {
+    let (s, sd, sdd) = plan.timing().profile.eval(tau);
+    (
+        s,
+        sd * scale.sigma,
+        sdd * scale.sigma * scale.sigma + sd * scale.rate,
+    )
+}
+
 /// What the arm is doing.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[allow(
@@ -574,88 +686,18 @@ impl Motion {
         }
     }
 
-    /// A stop of `plan` from its state at `tau` under the current time scale: a table (of a
-    /// Cartesian path) brakes its path parameter where that stays below the table
-    /// ([`PathStop`]), else its time scale; a profile on constant bounds brakes `s`.
+    /// A stop of `plan` from its state at `tau` under the current time scale.
     fn stop(&self, plan: &Path, tau: f64) -> Stop {
-        let timing = plan.timing();
-        if let (Profile::Table(table), Path::Linear(m)) = (&timing.profile, plan) {
-            let (s, sd, sdd) = table.eval(tau);
-            let (sigma, rate) = (self.scale.sigma, self.scale.rate);
-            let state = (s, sd * sigma, sdd * sigma * sigma + sd * rate);
-            let previous = self.point.q;
-            if let Some(stop) =
-                PathStop::new(state, sigma, table.peak_velocity(), *m.scale_limits()).filter(
-                    |stop| {
-                        stop.stays_below(&timing.profile, |s, speed| {
-                            plan.cruise_rates(s, speed, PREDICTION_STEP_S, &previous)
-                        })
-                    },
-                )
-            {
-                return Stop::OnPath(stop);
-            }
-            return Stop::TimeScale(ScaleBrake::new(
-                tau,
-                self.scale.sigma,
-                self.scale.rate,
-                table.duration(),
-                *m.scale_limits(),
-            ));
-        }
-        let (s, sd, sdd) = timing.profile.eval(tau);
-        let limits = timing.limits;
-        // Same (s, ṡ, s̈) as the point last commanded, so the stop is continuous.
-        Stop::Path(PathBrake::new(
-            s,
-            sd * self.scale.sigma,
-            sdd * self.scale.sigma * self.scale.sigma + sd * self.scale.rate,
-            limits.braking(),
-            limits.jerk,
-        ))
+        Stop::of(plan, tau, self.scale, &self.point.q)
     }
 
     /// One tick of a stop of `plan`.
     fn brake_tick(&mut self, sequence: Sequence, plan: Path, mut stop: Stop, dt: f64) {
-        let stopped = match &mut stop {
-            Stop::Path(brake) => {
-                brake.advance(dt);
-                self.point = plan.point(brake.s, brake.v, brake.a, &self.point.q);
-                self.path_position = brake.s;
-                self.path_rate = (brake.v, brake.a);
-                brake.is_stopped()
-            }
-            Stop::OnPath(brake) => {
-                brake.advance(dt, |s, speed| {
-                    plan.cruise_rates(s, speed, dt, &self.point.q)
-                });
-                let (s, sd, sdd) = brake.state();
-                self.point = plan.point(s, sd, sdd, &self.point.q);
-                self.path_position = s;
-                self.path_rate = (sd, sdd);
-                let handover = match &plan {
-                    Path::Linear(m) => brake.handover(&m.timing().profile, *m.scale_limits()),
-                    Path::Joint(_) => None,
-                };
-                if let Some(handover) = handover {
-                    self.scale.sigma = handover.sigma();
-                    self.scale.rate = handover.sigma_rate();
-                    stop = Stop::TimeScale(handover);
-                    false
-                } else {
-                    brake.is_stopped()
-                }
-            }
-            Stop::TimeScale(brake) => {
-                let tau = brake.tau();
-                brake.advance(dt, || plan.table_rates(tau, dt, &self.point.q));
-                self.scale.sigma = brake.sigma();
-                self.scale.rate = brake.sigma_rate();
-                self.place(&plan, brake.tau());
-                brake.is_stopped()
-            }
-        };
-        self.phase = if stopped {
+        let tick = stop.advance(&plan, dt, &mut self.scale, &self.point.q);
+        self.point = tick.point;
+        self.path_position = tick.position;
+        self.path_rate = tick.rate;
+        self.phase = if tick.stopped {
             Phase::Idle
         } else {
             Phase::Braking {
@@ -871,10 +913,8 @@ impl Motion {
         tau: f64,
         previous: &[f64; AXES],
     ) -> (JointPoint, f64, (f64, f64)) {
-        let (s, sd, sdd) = plan.timing().profile.eval(tau);
-        let (sigma, sigma_rate) = (self.scale.sigma, self.scale.rate);
-        let rate = (sd * sigma, sdd * sigma * sigma + sd * sigma_rate);
-        (plan.point(s, rate.0, rate.1, previous), s, rate)
+        let (s, sd, sdd) = scaled(plan, tau, self.scale);
+        (plan.point(s, sd, sdd, previous), s, (sd, sdd))
     }
 
     /// Commands the blended point of `blend` at its times; once the outgoing move has ended

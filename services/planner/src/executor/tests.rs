@@ -1228,21 +1228,6 @@ mod linear {
         }
     }
 
-    /// The shortest stop of one joint from velocity `v` and acceleration `a` within the
-    /// acceleration and jerk limits `(a_max, j_max)`, path or no path: its acceleration first
-    /// goes to the deceleration limit (or as far as the speed leaves room for), then back to 0
-    /// as the speed reaches 0. A lower bound of any stop of the arm.
-    fn joint_stop_time(v: f64, a: f64, a_max: f64, j_max: f64) -> f64 {
-        let (v, a) = if v < 0.0 { (-v, -a) } else { (v, a) };
-        let hold = (v + a * a / (2.0 * j_max) - a_max * a_max / j_max) / a_max;
-        if hold >= 0.0 {
-            (a + a_max) / j_max + hold + a_max / j_max
-        } else {
-            let peak = (j_max * v + 0.5 * a * a).sqrt();
-            (a + 2.0 * peak) / j_max
-        }
-    }
-
     /// GroupStop `ticks` into the line by `shift` (and [`TURN`]): the time the stop took,
     /// the longest any joint alone needs from the point commanded when it was sent, and
     /// the line's target.
@@ -1265,7 +1250,7 @@ mod linear {
         let took = (rig.trace.len() - stopped_at) as f64 * DT;
         let slowest = (0..AXES)
             .map(|i| {
-                joint_stop_time(
+                crate::brake::shortest_stop_time(
                     from.qd[i],
                     from.qdd[i],
                     rig.limits.acceleration[i],
