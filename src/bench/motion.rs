@@ -17,6 +17,7 @@
 mod exchange;
 mod problems;
 mod report;
+mod stops;
 mod timing;
 
 use std::path::PathBuf;
@@ -27,6 +28,7 @@ use shared_types::config::Config;
 use exchange::{Optimum, Reference, ReferenceError};
 use problems::{MAX_TURN_RAD, Ours, Problems, Robot};
 use report::{OptimalityRow, TimingRow};
+use stops::Stops;
 use timing::{CallTimes, Timings};
 
 /// The options of `rc bench motion`.
@@ -59,6 +61,7 @@ struct MotionResults {
     robot: Robot,
     problems: Problems,
     timings: Timings,
+    stops: Stops,
     reference: Result<Reference, ReferenceError>,
     /// `None` where it was not asked for.
     optimum: Option<Result<Optimum, ReferenceError>>,
@@ -98,6 +101,8 @@ fn measure(
         options.seed,
         joints * timing::KINEMATICS_PER_PROBLEM,
     );
+    super::progress("stopping every line at 10 and 50 % of its time");
+    let stops = stops::measure(&robot, &problems);
     let reference = if with_reference {
         super::progress(&format!(
             "reference planners ({} in {})",
@@ -125,6 +130,7 @@ fn measure(
         robot,
         problems,
         timings,
+        stops,
         reference,
         optimum,
     })
@@ -144,13 +150,13 @@ fn render(results: &MotionResults, options: &Options) -> String {
     )];
     report::render(
         &title,
-        &timing_rows(&results.timings),
+        &timing_rows(&results.timings, &results.stops),
         &optimality_rows(results),
         &notes(results, options),
     )
 }
 
-fn timing_rows(t: &Timings) -> Vec<TimingRow> {
+fn timing_rows(t: &Timings, stops: &Stops) -> Vec<TimingRow> {
     let measured = |label: &str, micros: bool, calls: &CallTimes| TimingRow::Measured {
         label: label.to_string(),
         micros,
@@ -186,6 +192,11 @@ fn timing_rows(t: &Timings) -> Vec<TimingRow> {
             true,
             &t.conic,
         ),
+        measured(
+            "GroupStop of a MoveLinear on its table (Stop::of)",
+            true,
+            &stops.decision,
+        ),
     ]
 }
 
@@ -209,7 +220,7 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
         OptimalityRow { label, ratios }
     };
     let of = report::RatioStats::of;
-    vec![
+    let mut rows = vec![
         row(
             format!("MoveAxes / ruckig, as planned (reserve {reserve})"),
             &|r| of(&as_planned(&joint), &r.joint),
@@ -259,7 +270,24 @@ fn optimality_rows(results: &MotionResults) -> Vec<OptimalityRow> {
             ratios: of(&constant_bounds(&linear), &linear_as_planned(p))
                 .ok_or_else(|| "no line planned".to_string()),
         },
-    ]
+    ];
+    for (share, set) in stops::STOP_AT.iter().zip(&results.stops.at) {
+        let percent = share * 100.0;
+        let stop_row = |label: String, ours: &[f64]| OptimalityRow {
+            label,
+            ratios: of(ours, &set.slowest_joint_s)
+                .ok_or_else(|| "no line on its table".to_string()),
+        };
+        rows.push(stop_row(
+            format!("GroupStop at {percent} % of a MoveLinear / slowest joint"),
+            &set.ours_s,
+        ));
+        rows.push(stop_row(
+            "the same, braking its time scale alone / slowest joint".to_string(),
+            &set.time_scale_s,
+        ));
+    }
+    rows
 }
 
 /// The ratios of a row against the answer of a reference script: `ratio` of it, or why there
@@ -400,6 +428,13 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
          a nonconvex program started from ours): the 2 % target's reference for the lines; \
          as the limits hold at the step boundaries only it may be a little shorter than a \
          timing that keeps them everywhere"
+            .to_string(),
+        "GroupStop: every line on its table stopped after 10 and 50 % of its duration at \
+         full override, in 1 ms ticks as the executor brakes (the path parameter while the \
+         table speeds up, else the table's time scale), against the shortest stop of the \
+         slowest joint alone from the point commanded then (its acceleration to the limit \
+         and back, without the path: a lower bound); braking the time scale alone: how \
+         every stop on a table braked before, side by side"
             .to_string(),
         "scale: ruckig's jerk-limited optimum over toppra's v/a-only optimum of the same \
          joint moves (straight joint lines): what the jerk limit alone costs on such moves, \
@@ -580,6 +615,15 @@ mod tests {
         assert_eq!(t.plan_linear_tick.each.count(), 2 * timing::PLAN_REPEATS);
         assert_eq!(t.topp.each.count(), 2 * timing::PLAN_REPEATS);
         assert_eq!(t.conic.each.count(), 2);
+        // Both lines stopped at both shares; no stop beats the slowest joint alone.
+        assert_eq!(results.stops.at.len(), stops::STOP_AT.len());
+        for set in &results.stops.at {
+            assert_eq!(set.ours_s.len(), 2);
+            let stops = set.ours_s.iter().chain(&set.time_scale_s);
+            for (took, slowest) in stops.zip(set.slowest_joint_s.iter().cycle()) {
+                assert!(took.is_nan() || took >= slowest, "{took} {slowest}");
+            }
+        }
         let text = render(&results, &options);
         for expected in [
             "IK, all 8 branches",
@@ -591,6 +635,9 @@ mod tests {
             "MoveLinear / jerk-aware lower bound, as planned",
             "MoveLinear / jerk-aware lower bound, without reserve",
             "MoveAxes / ruckig, as planned",
+            "GroupStop at 10 % of a MoveLinear / slowest joint",
+            "braking its time scale alone",
+            "GroupStop of a MoveLinear on its table",
             "skipped: no reference environment",
             "bash bench/setup.sh",
         ] {

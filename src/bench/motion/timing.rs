@@ -49,7 +49,7 @@ pub struct Timings {
 }
 
 /// Times `call` on every input: each call alone, then all in one loop.
-fn time_calls<I, T>(inputs: &[I], mut call: impl FnMut(&I) -> T) -> CallTimes {
+pub fn time_calls<I, T>(inputs: &[I], mut call: impl FnMut(&I) -> T) -> CallTimes {
     let mut samples = Vec::with_capacity(inputs.len());
     for input in inputs {
         let start = Instant::now();

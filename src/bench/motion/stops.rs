@@ -1,0 +1,156 @@
+//! GroupStops on the problem set's lines, braked as the executor brakes them
+//! ([`Stop::of`] and [`Stop::advance`] in 1 ms ticks), against the shortest stop the slowest
+//! joint could make alone from the same point ([`shortest_stop_time`], a lower bound of any
+//! stop), and the same stops braking the table's time scale alone (as every stop on a table
+//! did before its path parameter could be braked): side by side in one run.
+
+use planner::brake::shortest_stop_time;
+use planner::linear_move::LinearMove;
+use planner::motion::{Path, Stop};
+use planner::profile::Profile;
+use planner::scale_brake::ScaleBrake;
+use planner::time_scale::TimeScale;
+use shared_types::ipc::AXES;
+
+use super::problems::{LinearCase, Problems, Robot};
+use super::timing::{CallTimes, time_calls};
+
+/// Shares of a line's duration after which it is stopped.
+pub const STOP_AT: [f64; 2] = [0.1, 0.5];
+/// The executor's tick (s).
+const TICK_S: f64 = 1e-3;
+/// Ticks a stop may take at most (20 s; none takes a second).
+const MAX_TICKS: usize = 20_000;
+/// Points at which the joints are followed from the start of a line to where it is stopped
+/// (each on the turn nearest the one before).
+const FOLLOW_STEPS: usize = 64;
+
+/// The stops at one share of every line's duration, in s; NaN for a line on constant
+/// bounds (no table to brake).
+#[derive(Debug, Clone, Default)]
+pub struct StopSet {
+    /// As the executor stops.
+    pub ours_s: Vec<f64>,
+    /// Braking the table's time scale alone.
+    pub time_scale_s: Vec<f64>,
+    /// The slowest joint alone, from the point commanded when the stop comes.
+    pub slowest_joint_s: Vec<f64>,
+}
+
+/// Every stop measured.
+#[derive(Debug, Clone)]
+pub struct Stops {
+    /// One set per share of [`STOP_AT`].
+    pub at: Vec<StopSet>,
+    /// [`Stop::of`] at every share of every line on its table: the decision in the tick
+    /// that brakes.
+    pub decision: CallTimes,
+}
+
+/// A line stopped after `share` of its duration: the plan, the profile time and the joints
+/// commanded there.
+struct Stopped {
+    plan: Path,
+    tau: f64,
+    joints: [f64; AXES],
+}
+
+/// Stops every line of `problems` at the shares of [`STOP_AT`].
+pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
+    let plans: Vec<Option<LinearMove>> = problems
+        .linear
+        .iter()
+        .map(|c| {
+            LinearCase::plan(robot, c.start, &LinearCase::command(c.pose), robot.reserve)
+                .ok()
+                .flatten()
+                .filter(|m| matches!(m.timing().profile, Profile::Table(_)))
+        })
+        .collect();
+    let mut decisions = Vec::new();
+    let at = STOP_AT
+        .iter()
+        .map(|&share| {
+            let mut set = StopSet::default();
+            for (plan, case) in plans.iter().zip(&problems.linear) {
+                let Some(m) = plan else {
+                    set.ours_s.push(f64::NAN);
+                    set.time_scale_s.push(f64::NAN);
+                    set.slowest_joint_s.push(f64::NAN);
+                    continue;
+                };
+                let stopped = stopped(m, case.start, share);
+                set.slowest_joint_s.push(slowest_joint(robot, &stopped));
+                let ours = Stop::of(
+                    &stopped.plan,
+                    stopped.tau,
+                    TimeScale::at(1.0),
+                    &stopped.joints,
+                );
+                set.ours_s.push(run(ours, &stopped));
+                let time_scale = Stop::TimeScale(ScaleBrake::new(
+                    stopped.tau,
+                    1.0,
+                    0.0,
+                    m.timing().profile.duration(),
+                    *m.scale_limits(),
+                ));
+                set.time_scale_s.push(run(time_scale, &stopped));
+                decisions.push(stopped);
+            }
+            set
+        })
+        .collect();
+    let decision = time_calls(&decisions, |s| {
+        Stop::of(&s.plan, s.tau, TimeScale::at(1.0), &s.joints)
+    });
+    Stops { at, decision }
+}
+
+/// `m` after `share` of its duration, its joints followed there from `start`.
+fn stopped(m: &LinearMove, start: [f64; AXES], share: f64) -> Stopped {
+    let profile = &m.timing().profile;
+    let tau = share * profile.duration();
+    let (r, _, _) = profile.eval(tau);
+    let mut joints = start;
+    for k in 1..=FOLLOW_STEPS {
+        let (s, _, _) = m.travel(r * k as f64 / FOLLOW_STEPS as f64, 0.0, 0.0);
+        joints = m.joints_at(s, &joints).unwrap_or(joints);
+    }
+    Stopped {
+        plan: Path::Linear(*m),
+        tau,
+        joints,
+    }
+}
+
+/// The longest of the joints' shortest stops from the point commanded at the stop.
+fn slowest_joint(robot: &Robot, stopped: &Stopped) -> f64 {
+    let (r, rd, rdd) = stopped.plan.timing().profile.eval(stopped.tau);
+    let point = stopped.plan.point(r, rd, rdd, &stopped.joints);
+    let limits = &robot.limits;
+    (0..AXES)
+        .map(|i| {
+            shortest_stop_time(
+                point.qd[i],
+                point.qdd[i],
+                limits.acceleration[i],
+                limits.jerk[i],
+            )
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The time (s) `stop` takes to bring the line to rest, in ticks; NaN if it never does.
+fn run(mut stop: Stop, stopped: &Stopped) -> f64 {
+    let mut scale = TimeScale::at(1.0);
+    let mut joints = stopped.joints;
+    for tick in 1..=MAX_TICKS {
+        let next = stop.advance(&stopped.plan, TICK_S, &mut scale, &joints);
+        joints = next.point.q;
+        if next.stopped {
+            return tick as f64 * TICK_S;
+        }
+    }
+    f64::NAN
+}
