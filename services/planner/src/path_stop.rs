@@ -66,8 +66,8 @@ pub struct PathStop {
 }
 
 impl PathStop {
-    /// A stop from `(s, ṡ, s̈)` on a table whose highest speed is `peak` (1/s) and that runs
-    /// `table_scale` times as fast as `ṡ` there; `None` for a path that stands or already
+    /// A stop from `(s, ṡ, s̈)` on a table whose highest speed is `peak` (1/s), `ṡ` being
+    /// `table_scale` times the table's speed there; `None` for a path that stands or already
     /// slows down (`s̈ < 0`): a deceleration the table builds up with its whole jerk limit,
     /// towards its end, the brake's share of it could not release in time.
     pub fn new(
@@ -77,8 +77,8 @@ impl PathStop {
         limits: ScaleLimits,
     ) -> Option<Self> {
         let (s, sd, sdd) = state;
-        // The highest speed keeps σ ≤ 1 and σ̇, σ̈ within the time-scale brake's bounds for
-        // any state of the table.
+        // The table's highest speed as the reference keeps σ ≤ 1, and σ̇ and σ̈ of the size
+        // the time-scale brake's own bounds on them are made for.
         let speed = peak.max(sd);
         (sd > 0.0 && sdd >= 0.0 && speed.is_finite()).then(|| Self {
             brake: ScaleBrake::without_run_out(
@@ -156,8 +156,9 @@ impl PathStop {
         if self.is_stopped() || !(gaining && scale >= HANDOVER_SCALE) {
             return None;
         }
-        // Same (s, ṡ, s̈) on the table's time scale: ṡ = σ·ṡₜ, s̈ = σ²·s̈ₜ + σ̇·ṡₜ. Checked
-        // every tick from a speed below the table's, σ passes 1 by a tick's change at most.
+        // Same (s, ṡ, s̈) on the table's time scale: ṡ = σ·ṡₜ, s̈ = σ²·s̈ₜ + σ̇·ṡₜ. σ may
+        // exceed 1 by what the stop ran above the table while the table still sped up (the
+        // prediction takes no stop that runs more than PREDICTION_CEILING above it).
         let sigma = scale;
         let rate = if td > 0.0 {
             (sdd - sigma * sigma * tdd) / td
