@@ -202,13 +202,8 @@ impl Stop {
     /// profile on constant bounds brakes `s`.
     pub fn of(plan: &Path, tau: f64, scale: TimeScale, previous: &[f64; AXES]) -> Self {
         let timing = plan.timing();
-        let (s, sd, sdd) = timing.profile.eval(tau);
         // Same (s, ṡ, s̈) as the point last commanded, so the stop is continuous.
-        let state = (
-            s,
-            sd * scale.sigma,
-            sdd * scale.sigma * scale.sigma + sd * scale.rate,
-        );
+        let state = scaled(plan, tau, scale);
         let (Profile::Table(table), Path::Linear(m)) = (&timing.profile, plan) else {
             let limits = timing.limits;
             let (s, sd, sdd) = state;
