@@ -65,6 +65,18 @@ pub struct PathStop {
     table_scale: f64,
 }
 
+/// The stop against its table at the stop's position.
+struct Comparison {
+    /// The table's time there and its `ṡₜ`, `s̈ₜ`.
+    time: f64,
+    speed: f64,
+    acceleration: f64,
+    /// `ṡ / ṡₜ`.
+    scale: f64,
+    /// Whether the stop gains on a table that slows down.
+    gaining: bool,
+}
+
 impl PathStop {
     /// A stop from `(s, ṡ, s̈)` on a table whose highest speed is `peak` (1/s), `ṡ` being
     /// `table_scale` times the table's speed there; `None` for a path that stands or already
@@ -109,16 +121,34 @@ impl PathStop {
             if ahead.is_stopped() {
                 return true;
             }
-            let (s, sd, _) = ahead.state();
-            let (_, td, tdd) = table.eval(time_at(table, s));
-            let scale = if td > 0.0 { sd / td } else { f64::INFINITY };
-            let gaining = scale > ahead.table_scale && tdd < 0.0;
-            if scale > PREDICTION_CEILING || (gaining && scale >= PREDICTION_MARGIN) {
+            let c = ahead.compare(table);
+            if c.scale > PREDICTION_CEILING || (c.gaining && c.scale >= PREDICTION_MARGIN) {
                 return false;
             }
-            ahead.table_scale = scale;
         }
         false
+    }
+
+    /// Compares the stop with `table` at its position, and keeps the scale for the next
+    /// comparison.
+    fn compare(&mut self, table: &Profile) -> Comparison {
+        let (s, sd, _) = self.state();
+        let time = time_at(table, s);
+        let (_, speed, acceleration) = table.eval(time);
+        let scale = if speed > 0.0 {
+            sd / speed
+        } else {
+            f64::INFINITY
+        };
+        let gaining = scale > self.table_scale && acceleration < 0.0;
+        self.table_scale = scale;
+        Comparison {
+            time,
+            speed,
+            acceleration,
+            scale,
+            gaining,
+        }
     }
 
     /// `(s, ṡ, s̈)` now.
@@ -147,25 +177,27 @@ impl PathStop {
     /// this brake gains on the table and has come within [`HANDOVER_SCALE`] of its speed at
     /// the same point; `None` while it stays below.
     pub fn handover(&mut self, table: &Profile, limits: ScaleLimits) -> Option<ScaleBrake> {
-        let (s, sd, sdd) = self.state();
-        let tau = time_at(table, s);
-        let (_, td, tdd) = table.eval(tau);
-        let scale = if td > 0.0 { sd / td } else { f64::INFINITY };
-        let gaining = scale > self.table_scale && tdd < 0.0;
-        self.table_scale = scale;
-        if self.is_stopped() || !(gaining && scale >= HANDOVER_SCALE) {
+        let c = self.compare(table);
+        if self.is_stopped() || !(c.gaining && c.scale >= HANDOVER_SCALE) {
             return None;
         }
+        let (_, _, sdd) = self.state();
         // Same (s, ṡ, s̈) on the table's time scale: ṡ = σ·ṡₜ, s̈ = σ²·s̈ₜ + σ̇·ṡₜ. σ may
         // exceed 1 by what the stop ran above the table while the table still sped up (the
         // prediction takes no stop that runs more than PREDICTION_CEILING above it).
-        let sigma = scale;
-        let rate = if td > 0.0 {
-            (sdd - sigma * sigma * tdd) / td
+        let sigma = c.scale;
+        let rate = if c.speed > 0.0 {
+            (sdd - sigma * sigma * c.acceleration) / c.speed
         } else {
             0.0
         };
-        Some(ScaleBrake::new(tau, sigma, rate, table.duration(), limits))
+        Some(ScaleBrake::new(
+            c.time,
+            sigma,
+            rate,
+            table.duration(),
+            limits,
+        ))
     }
 }
 
