@@ -12,7 +12,9 @@
 //! profile's own jerk on top of its own): the deceleration builds up at the lowest jerk
 //! allowed, is released at the highest, a deceleration beyond a limit that shrank is brought
 //! back at the highest, and otherwise the jerk nearest 0 is applied. The speed never turns
-//! negative.
+//! negative, and the deceleration always ends with it: a state already beyond the release
+//! curve (`ṡ < s̈²/(2j)`, where an override ramp's deceleration adds to a move's) is released
+//! with the jerk `s̈²/(2ṡ)` above the limit, rather than leaving a step of `s̈` at rest.
 
 /// Path speed below which the path counts as standing still (1/s).
 const REST: f64 = 1e-12;
@@ -108,8 +110,10 @@ impl PathBrake {
         let releasing = release > 0.0 && a < 0.0;
         let (jerk, duration) = if releasing && v <= release_speed * (1.0 + SWITCH_TOLERANCE) {
             // Release: s̈ → 0, ending with the speed. Below the curve (the limits shrank
-            // since it began) the jerk that ends both together, as far as `high` allows.
-            let jerk = (a * a / (2.0 * v)).clamp(release, high.max(release));
+            // since it began, or it started there: an override ramp's deceleration on top of
+            // a move's) the jerk that ends both together, even above `high`: any less ends
+            // the speed first and leaves a step of the acceleration at rest.
+            let jerk = (a * a / (2.0 * v)).max(release);
             (jerk, -a / jerk)
         } else if a > -a_max && low < 0.0 {
             // Build up deceleration until the limit or the release curve
@@ -191,9 +195,18 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// Brakes to rest and checks the limits on the samples; returns (ticks, distance).
+    /// The jerk that releases a deceleration `a < 0` to end with the speed `v`: above the
+    /// jerk limit where the start lies beyond the release curve.
+    fn release_needs(v: f64, a: f64) -> f64 {
+        if a < 0.0 { a * a / (2.0 * v) } else { 0.0 }
+    }
+
+    /// Brakes to rest and checks the limits on the samples, up to the last one (no step of
+    /// the acceleration at rest); returns (ticks, distance).
     fn brake_to_rest(mut b: PathBrake, dt: f64) -> (usize, f64) {
-        let (a_max, j_max) = (b.a_max, b.jerk_high);
+        let a_max = b.a_max;
+        // A start beyond the release curve cannot end within the jerk limit.
+        let j_max = b.jerk_high.max(release_needs(b.v, b.a));
         let start = b.s;
         let start_a = b.a;
         let mut prev = b;
@@ -202,10 +215,11 @@ mod tests {
             assert!(b.v >= 0.0, "reversed: {b:?}");
             assert!(b.s >= prev.s, "went back: {prev:?} -> {b:?}");
             assert!(b.a >= -a_max * (1.0 + 1e-9) && b.a <= start_a.max(0.0) + 1e-12);
-            if !b.is_stopped() {
-                let jerk = (b.a - prev.a).abs() / dt;
-                assert!(jerk <= j_max * (1.0 + 1e-6), "jerk {jerk} > {j_max}");
-            }
+            let jerk = (b.a - prev.a).abs() / dt;
+            assert!(
+                jerk <= j_max * (1.0 + 1e-6),
+                "jerk {jerk} > {j_max}: {prev:?} -> {b:?}"
+            );
             if b.is_stopped() {
                 return (tick, b.s - start);
             }
@@ -292,6 +306,25 @@ mod tests {
         assert!((b.s - 0.04 * 0.08 / 3.0).abs() < 1e-12, "{}", b.s);
     }
 
+    #[test]
+    fn a_start_beyond_the_release_curve_ends_with_the_speed_without_a_step() {
+        // v = 0.04 < a²/(2·j) = 0.05, as an override ramp's deceleration on top of a move's
+        // leaves it: the release takes jerk a²/(2v) = 12.5 over the limit 10, where the limit
+        // would end the speed at s̈ = -0.45 and leave that as a step.
+        let (v, a, dt) = (0.04, -1.0, 1e-3);
+        let mut b = PathBrake::new(0.0, v, a, 1.0, 10.0);
+        let mut prev = b;
+        while !b.is_stopped() {
+            b.advance(dt);
+            assert!(
+                (b.a - prev.a).abs() <= 12.5 * dt * (1.0 + 1e-9),
+                "{prev:?} -> {b:?}"
+            );
+            prev = b;
+        }
+        assert!((b.s - v * (2.0 * v / -a) / 3.0).abs() < 1e-12, "{}", b.s);
+    }
+
     proptest! {
         /// Limits that change every tick, with a jerk range that need not hold 0: the speed
         /// never turns negative, the path never goes back, and the acceleration changes by
@@ -303,17 +336,22 @@ mod tests {
             ticks in prop::collection::vec((0.5f64..3.0, -20.0f64..5.0, 5.0f64..20.0, 0.2f64..1.0), 400),
         ) {
             let dt = 1e-3;
-            let mut b = PathBrake::new(0.0, v, a, 2.0, 10.0);
+            // Far from the path's end, where the move itself would stop.
+            let mut b = PathBrake::new(-1e9, v, a, 2.0, 10.0);
             for (a_max, low, high, release) in ticks {
                 let before = b;
                 b.set_limits(a_max, low, high, release * high);
                 b.advance(dt);
                 prop_assert!(b.v >= 0.0 && b.s >= before.s);
-                if !b.is_stopped() {
-                    let rate = (b.a - before.a) / dt;
-                    let slack = 1e-9 * (1.0 + low.abs().max(high.abs()));
-                    prop_assert!(rate >= low - slack && rate <= high + slack, "{rate} outside [{low}, {high}]");
+                if before.v == 0.0 {
+                    // Standing (even with s̈ > 0, as drawn): it stays so at once.
+                    continue;
                 }
+                // Beyond the release curve, the release ends with the speed above `high`.
+                let high = high.max(release_needs(before.v, before.a));
+                let rate = (b.a - before.a) / dt;
+                let slack = 1e-9 * (1.0 + low.abs().max(high.abs()));
+                prop_assert!(rate >= low - slack && rate <= high + slack, "{rate} outside [{low}, {high}]");
             }
         }
 
