@@ -197,6 +197,16 @@ fn timing_rows(t: &Timings, stops: &Stops) -> Vec<TimingRow> {
             true,
             &stops.decision,
         ),
+        measured(
+            "a tick of it braking the path parameter (Stop::advance)",
+            true,
+            &stops.path_tick,
+        ),
+        measured(
+            "a tick braking the table's time scale alone",
+            true,
+            &stops.time_scale_tick,
+        ),
     ]
 }
 

@@ -4,6 +4,8 @@
 //! stop), and the same stops braking the table's time scale alone (as every stop on a table
 //! did before its path parameter could be braked): side by side in one run.
 
+use std::time::Instant;
+
 use planner::brake::shortest_stop_time;
 use planner::linear_move::LinearMove;
 use planner::motion::{Path, Stop};
@@ -14,6 +16,7 @@ use shared_types::ipc::AXES;
 
 use super::problems::{LinearCase, Problems, Robot};
 use super::timing::{CallTimes, time_calls};
+use crate::bench::elapsed_ns;
 
 /// Shares of a line's duration after which it is stopped.
 pub const STOP_AT: [f64; 2] = [0.1, 0.5];
@@ -45,6 +48,28 @@ pub struct Stops {
     /// [`Stop::of`] at every share of every line on its table: the decision in the tick
     /// that brakes.
     pub decision: CallTimes,
+    /// [`Stop::advance`]: every tick of those stops that braked the path parameter.
+    pub path_tick: CallTimes,
+    /// [`Stop::advance`]: every tick that braked a table's time scale, in the stops braking
+    /// it alone.
+    pub time_scale_tick: CallTimes,
+}
+
+/// The clock time of every tick of a stop, by what it braked.
+#[derive(Default)]
+struct TickTimes {
+    path: Vec<u64>,
+    time_scale: Vec<u64>,
+}
+
+impl TickTimes {
+    fn record(&mut self, stop: &Stop, ns: u64) {
+        match stop {
+            Stop::OnPath(_) => self.path.push(ns),
+            Stop::TimeScale(_) => self.time_scale.push(ns),
+            Stop::Path(_) => {}
+        }
+    }
 }
 
 /// A line stopped after `share` of its duration: the plan, the profile time and the joints
@@ -68,6 +93,7 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
         })
         .collect();
     let mut decisions = Vec::new();
+    let (mut ours_ticks, mut time_scale_ticks) = (TickTimes::default(), TickTimes::default());
     let at = STOP_AT
         .iter()
         .map(|&share| {
@@ -87,7 +113,7 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
                     TimeScale::at(1.0),
                     &stopped.joints,
                 );
-                set.ours_s.push(run(ours, &stopped));
+                set.ours_s.push(run(ours, &stopped, &mut ours_ticks));
                 let time_scale = Stop::TimeScale(ScaleBrake::new(
                     stopped.tau,
                     1.0,
@@ -95,7 +121,8 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
                     m.timing().profile.duration(),
                     *m.scale_limits(),
                 ));
-                set.time_scale_s.push(run(time_scale, &stopped));
+                set.time_scale_s
+                    .push(run(time_scale, &stopped, &mut time_scale_ticks));
                 decisions.push(stopped);
             }
             set
@@ -104,7 +131,12 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
     let decision = time_calls(&decisions, |s| {
         Stop::of(&s.plan, s.tau, TimeScale::at(1.0), &s.joints)
     });
-    Stops { at, decision }
+    Stops {
+        at,
+        decision,
+        path_tick: CallTimes::of_samples(ours_ticks.path),
+        time_scale_tick: CallTimes::of_samples(time_scale_ticks.time_scale),
+    }
 }
 
 /// `m` after `share` of its duration, its joints followed there from `start`.
@@ -142,11 +174,15 @@ fn slowest_joint(robot: &Robot, stopped: &Stopped) -> f64 {
 }
 
 /// The time (s) `stop` takes to bring the line to rest, in ticks; NaN if it never does.
-fn run(mut stop: Stop, stopped: &Stopped) -> f64 {
+/// Each tick's clock time goes to `times`.
+fn run(mut stop: Stop, stopped: &Stopped, times: &mut TickTimes) -> f64 {
     let mut scale = TimeScale::at(1.0);
     let mut joints = stopped.joints;
     for tick in 1..=MAX_TICKS {
+        let braking = stop;
+        let start = Instant::now();
         let next = stop.advance(&stopped.plan, TICK_S, &mut scale, &joints);
+        times.record(&braking, elapsed_ns(start));
         joints = next.point.q;
         if next.stopped {
             return tick as f64 * TICK_S;

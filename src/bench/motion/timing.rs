@@ -48,6 +48,18 @@ pub struct Timings {
     pub conic: CallTimes,
 }
 
+impl CallTimes {
+    /// Calls timed each alone, in ns: their rate is that of their sum.
+    pub fn of_samples(samples: Vec<u64>) -> Self {
+        let total_s = samples.iter().sum::<u64>() as f64 * 1e-9;
+        let per_second = samples.len() as f64 / total_s.max(f64::MIN_POSITIVE);
+        Self {
+            each: Distribution::new(samples),
+            per_second,
+        }
+    }
+}
+
 /// Times `call` on every input: each call alone, then all in one loop.
 pub fn time_calls<I, T>(inputs: &[I], mut call: impl FnMut(&I) -> T) -> CallTimes {
     let mut samples = Vec::with_capacity(inputs.len());
