@@ -209,24 +209,30 @@ impl Stop {
             let (s, sd, sdd) = state;
             return Self::Path(PathBrake::new(s, sd, sdd, limits.braking(), limits.jerk));
         };
-        PathStop::new(state, scale.sigma, table.peak_velocity(), *m.scale_limits())
-            .filter(|stop| {
-                stop.stays_below(&timing.profile, |s, speed| {
-                    plan.cruise_rates(s, speed, PREDICTION_STEP_S, previous)
-                })
+        PathStop::new(
+            state,
+            tau,
+            scale.sigma,
+            table.peak_velocity(),
+            *m.scale_limits(),
+        )
+        .filter(|stop| {
+            stop.stays_below(&timing.profile, |s, speed| {
+                plan.cruise_rates(s, speed, PREDICTION_STEP_S, previous)
             })
-            .map_or_else(
-                || {
-                    Self::TimeScale(ScaleBrake::new(
-                        tau,
-                        scale.sigma,
-                        scale.rate,
-                        table.duration(),
-                        *m.scale_limits(),
-                    ))
-                },
-                Self::OnPath,
-            )
+        })
+        .map_or_else(
+            || {
+                Self::TimeScale(ScaleBrake::new(
+                    tau,
+                    scale.sigma,
+                    scale.rate,
+                    table.duration(),
+                    *m.scale_limits(),
+                ))
+            },
+            Self::OnPath,
+        )
     }
 
     /// Advances `dt` seconds of `plan` from the point last commanded at `previous`; a stop
