@@ -446,13 +446,33 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
          and back, without the path: a lower bound); braking the time scale alone: how \
          every stop on a table braked before, side by side"
             .to_string(),
+    ];
+    for (share, set) in stops::STOP_AT.iter().zip(&results.stops.at) {
+        let peaks = |p: &stops::Peaks| {
+            format!(
+                "velocity {:.3}, acceleration {:.3}, jerk {:.3}",
+                p.velocity, p.acceleration, p.jerk
+            )
+        };
+        notes.push(format!(
+            "GroupStop at {} %, the highest any joint was commanded over its limit: as the \
+             executor stops {} ({} of the stops braked the path parameter, {} of those handed \
+             over to the time scale); braking the time scale alone {}",
+            share * 100.0,
+            peaks(&set.ours_peaks),
+            set.path_stops,
+            set.handovers,
+            peaks(&set.time_scale_peaks),
+        ));
+    }
+    notes.extend([
         "scale: ruckig's jerk-limited optimum over toppra's v/a-only optimum of the same \
          joint moves (straight joint lines): what the jerk limit alone costs on such moves, \
          so the part of the MoveLinear ratio beyond it comes from our planner; constant \
          bounds / as planned: what a line gains by its table (a line runs on constant bounds \
          when its table comes too late)"
             .to_string(),
-    ];
+    ]);
     if !p.refused.is_empty() {
         let reasons: Vec<String> = p.refused.iter().map(|(r, n)| format!("{r} {n}")).collect();
         notes.push(format!(
@@ -632,6 +652,14 @@ mod tests {
             let stops = set.ours_s.iter().chain(&set.time_scale_s);
             for (took, slowest) in stops.zip(set.slowest_joint_s.iter().cycle()) {
                 assert!(took.is_nan() || took >= slowest, "{took} {slowest}");
+            }
+            // Every stop within the joint limits, the jerk of its first tick included.
+            for p in [set.ours_peaks, set.time_scale_peaks] {
+                assert!(
+                    p.velocity <= 1.0 + 1e-6 && p.acceleration <= 1.0 + 1e-6,
+                    "{p:?}"
+                );
+                assert!(p.jerk > 0.0 && p.jerk <= 1.0 + 1e-6, "{p:?}");
             }
         }
         let text = render(&results, &options);

@@ -12,7 +12,8 @@ use planner::motion::{Path, Stop};
 use planner::profile::Profile;
 use planner::scale_brake::ScaleBrake;
 use planner::time_scale::TimeScale;
-use shared_types::ipc::AXES;
+use shared_types::config::JointLimitsRad;
+use shared_types::ipc::{AXES, JointPoint};
 
 use super::problems::{LinearCase, Problems, Robot};
 use super::timing::{CallTimes, time_calls};
@@ -38,6 +39,46 @@ pub struct StopSet {
     pub time_scale_s: Vec<f64>,
     /// The slowest joint alone, from the point commanded when the stop comes.
     pub slowest_joint_s: Vec<f64>,
+    /// The highest the stops as the executor stops commanded, over the joint limits.
+    pub ours_peaks: Peaks,
+    /// The same, braking the time scale alone.
+    pub time_scale_peaks: Peaks,
+    /// Stops that braked the path parameter, and of those, handed over to the time scale.
+    pub path_stops: usize,
+    pub handovers: usize,
+}
+
+/// The highest joint velocity, acceleration and jerk some stops commanded, each over its
+/// limit, the jerk from the accelerations of consecutive ticks (the first against the point
+/// commanded before the stop).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Peaks {
+    pub velocity: f64,
+    pub acceleration: f64,
+    pub jerk: f64,
+}
+
+impl Peaks {
+    /// The higher of each.
+    fn worst(self, other: Self) -> Self {
+        Self {
+            velocity: self.velocity.max(other.velocity),
+            acceleration: self.acceleration.max(other.acceleration),
+            jerk: self.jerk.max(other.jerk),
+        }
+    }
+
+    /// Takes in the step from `before` to `after`, a tick apart.
+    fn take(&mut self, limits: &JointLimitsRad, before: &JointPoint, after: &JointPoint) {
+        for i in 0..AXES {
+            let jerk = (after.qdd[i] - before.qdd[i]).abs() / TICK_S;
+            self.velocity = self.velocity.max(after.qd[i].abs() / limits.velocity[i]);
+            self.acceleration = self
+                .acceleration
+                .max(after.qdd[i].abs() / limits.acceleration[i]);
+            self.jerk = self.jerk.max(jerk / limits.jerk[i]);
+        }
+    }
 }
 
 /// Every stop measured.
@@ -113,7 +154,12 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
                     TimeScale::at(1.0),
                     &stopped.joints,
                 );
-                set.ours_s.push(run(ours, &stopped, &mut ours_ticks));
+                let on_path = matches!(ours, Stop::OnPath(_));
+                let ran = run(ours, &stopped, &robot.limits, &mut ours_ticks);
+                set.ours_s.push(ran.duration_s);
+                set.ours_peaks = ran.peaks.worst(set.ours_peaks);
+                set.path_stops += usize::from(on_path);
+                set.handovers += usize::from(on_path && ran.handed_over);
                 let time_scale = Stop::TimeScale(ScaleBrake::new(
                     stopped.tau,
                     1.0,
@@ -121,8 +167,9 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
                     m.timing().profile.duration(),
                     *m.scale_limits(),
                 ));
-                set.time_scale_s
-                    .push(run(time_scale, &stopped, &mut time_scale_ticks));
+                let ran = run(time_scale, &stopped, &robot.limits, &mut time_scale_ticks);
+                set.time_scale_s.push(ran.duration_s);
+                set.time_scale_peaks = ran.peaks.worst(set.time_scale_peaks);
                 decisions.push(stopped);
             }
             set
@@ -156,10 +203,17 @@ fn stopped(m: &LinearMove, start: [f64; AXES], share: f64) -> Stopped {
     }
 }
 
+impl Stopped {
+    /// The point commanded when the stop comes.
+    fn point(&self) -> JointPoint {
+        let (r, rd, rdd) = self.plan.timing().profile.eval(self.tau);
+        self.plan.point(r, rd, rdd, &self.joints)
+    }
+}
+
 /// The longest of the joints' shortest stops from the point commanded at the stop.
 fn slowest_joint(robot: &Robot, stopped: &Stopped) -> f64 {
-    let (r, rd, rdd) = stopped.plan.timing().profile.eval(stopped.tau);
-    let point = stopped.plan.point(r, rd, rdd, &stopped.joints);
+    let point = stopped.point();
     let limits = &robot.limits;
     (0..AXES)
         .map(|i| {
@@ -173,20 +227,37 @@ fn slowest_joint(robot: &Robot, stopped: &Stopped) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The time (s) `stop` takes to bring the line to rest, in ticks; NaN if it never does.
-/// Each tick's clock time goes to `times`.
-fn run(mut stop: Stop, stopped: &Stopped, times: &mut TickTimes) -> f64 {
+/// One stop run to rest.
+struct Ran {
+    /// In ticks; NaN if it never comes to rest.
+    duration_s: f64,
+    /// What it commanded, within `limits` (of [`run`]) where ≤ 1.
+    peaks: Peaks,
+    /// Whether a stop of the path parameter handed over to the time scale.
+    handed_over: bool,
+}
+
+/// Runs `stop` to rest in ticks, each tick's clock time to `times`.
+fn run(mut stop: Stop, stopped: &Stopped, limits: &JointLimitsRad, times: &mut TickTimes) -> Ran {
     let mut scale = TimeScale::at(1.0);
-    let mut joints = stopped.joints;
+    let mut before = stopped.point();
+    let mut ran = Ran {
+        duration_s: f64::NAN,
+        peaks: Peaks::default(),
+        handed_over: false,
+    };
     for tick in 1..=MAX_TICKS {
         let braking = stop;
         let start = Instant::now();
-        let next = stop.advance(&stopped.plan, TICK_S, &mut scale, &joints);
+        let next = stop.advance(&stopped.plan, TICK_S, &mut scale, &before.q);
         times.record(&braking, elapsed_ns(start));
-        joints = next.point.q;
+        ran.peaks.take(limits, &before, &next.point);
+        ran.handed_over |= matches!(braking, Stop::OnPath(_)) && matches!(stop, Stop::TimeScale(_));
+        before = next.point;
         if next.stopped {
-            return tick as f64 * TICK_S;
+            ran.duration_s = tick as f64 * TICK_S;
+            break;
         }
     }
-    f64::NAN
+    ran
 }
