@@ -198,8 +198,8 @@ pub struct StopTick {
 impl Stop {
     /// A stop of `plan` from its state at profile time `tau` under the time scale `scale`,
     /// the point last commanded at `previous`: a table (of a Cartesian path) brakes its path
-    /// parameter where that stays below the table ([`PathStop`]), else its time scale; a
-    /// profile on constant bounds brakes `s`.
+    /// parameter where that stays below the table and is expected to stand sooner
+    /// ([`PathStop`]), else its time scale; a profile on constant bounds brakes `s`.
     pub fn of(plan: &Path, tau: f64, scale: TimeScale, previous: &[f64; AXES]) -> Self {
         let timing = plan.timing();
         // Same (s, ṡ, s̈) as the point last commanded, so the stop is continuous.
@@ -209,6 +209,13 @@ impl Stop {
             let (s, sd, sdd) = state;
             return Self::Path(PathBrake::new(s, sd, sdd, limits.braking(), limits.jerk));
         };
+        let time_scale = ScaleBrake::new(
+            tau,
+            scale.sigma,
+            scale.rate,
+            table.duration(),
+            *m.scale_limits(),
+        );
         PathStop::new(
             state,
             tau,
@@ -217,22 +224,14 @@ impl Stop {
             *m.scale_limits(),
         )
         .filter(|stop| {
-            stop.stays_below(&timing.profile, |s, speed| {
-                plan.cruise_rates(s, speed, PREDICTION_STEP_S, previous)
-            })
+            let cruise = |s, speed| plan.cruise_rates(s, speed, PREDICTION_STEP_S, previous);
+            stop.predicted_duration(&timing.profile, cruise)
+                .is_some_and(|took| {
+                    let rates = plan.table_rates(tau, PREDICTION_STEP_S, previous);
+                    took < time_scale.expected_duration(&rates, PREDICTION_STEP_S)
+                })
         })
-        .map_or_else(
-            || {
-                Self::TimeScale(ScaleBrake::new(
-                    tau,
-                    scale.sigma,
-                    scale.rate,
-                    table.duration(),
-                    *m.scale_limits(),
-                ))
-            },
-            Self::OnPath,
-        )
+        .map_or(Self::TimeScale(time_scale), Self::OnPath)
     }
 
     /// Advances `dt` seconds of `plan` from the point last commanded at `previous`; a stop

@@ -14,16 +14,22 @@
 //!
 //! What the time scale guarantees by construction, never being faster than the table at any
 //! point of the path, this brake has to check:
-//! - it is taken only while the path does not slow down yet (`s̈ ≥ 0`) and where a
-//!   prediction in steps of [`PREDICTION_STEP_S`] ([`PathStop::stays_below`]) finds it
-//!   standing before it gains on the table ahead (towards its end or a point near a singular
-//!   set) within [`PREDICTION_MARGIN`] of its speed; otherwise the stop brakes the time
-//!   scale as before. On the 100 lines of `rc bench motion` (seed 1) it was taken for 195 of
-//!   500 stops at 10 to 70 % of the table's time: at 10 % the stop took 1.11 instead of 2.17
-//!   times as long as the slowest joint alone (median), 3 instead of 15 mm of the path;
+//! - it is taken only where a prediction in steps of [`PREDICTION_STEP_S`]
+//!   ([`PathStop::predicted_duration`]) finds it standing before it gains on the table ahead
+//!   (towards its end or a point near a singular set) within [`PREDICTION_MARGIN`] of its
+//!   speed, and sooner than the time-scale brake is expected to stand
+//!   ([`ScaleBrake::expected_duration`]); otherwise the stop brakes the time scale as
+//!   before. While the table speeds up, the time scale has little to brake with and is
+//!   expected late; where the table brakes towards its end at its limits, running it out is
+//!   the sooner (and its deceleration, built up at the whole jerk limit, is more than this
+//!   brake's share could release). On the 100 lines of `rc bench motion` (seed 1), at 10 %
+//!   of the table's time all 100 stops took it, 1.11 instead of 2.17 times as long as the
+//!   slowest joint alone (median); at 50 %, 8 of 100, among them 3 that had run the table
+//!   out (0.49 instead of 0.52 to 0.73 s) and one that took 11 ms longer than the time scale
+//!   (0.348 s, expected 0.39 s);
 //! - should it still gain on the table where the table slows down, it hands over to the
-//!   table's time-scale brake from the same `(s, ṡ, s̈)` ([`PathStop::handover`]; once in
-//!   those 500 stops).
+//!   table's time-scale brake from the same `(s, ṡ, s̈)` ([`PathStop::handover`]; none of
+//!   those 200 stops did).
 //!
 //! The prediction runs in the tick that brakes, once per stop: with the rest of the decision
 //! 61 µs at the median and 0.22 ms at most on those lines (`rc bench motion`, release), within
@@ -43,7 +49,7 @@ const TIME_RESOLUTION: f64 = 3.552713678800501e-15;
 /// alone; Newton steps from the last tick's time take two to four.
 const TIME_SEARCH_STEPS: usize = 64;
 /// Step (s) of the prediction that decides whether a stop brakes the path parameter
-/// ([`PathStop::stays_below`]): a tenth of the shortest stop from full speed.
+/// ([`PathStop::predicted_duration`]): a tenth of the shortest stop from full speed.
 pub const PREDICTION_STEP_S: f64 = 0.01;
 /// Steps the prediction takes at most (2 s: longer than any stop within the limits).
 const PREDICTION_STEPS: usize = 200;
@@ -91,9 +97,7 @@ struct Comparison {
 impl PathStop {
     /// A stop from `(s, ṡ, s̈)` on a table whose highest speed is `peak` (1/s), which
     /// passes `s` at its time `table_time`, `ṡ` being `table_scale` times the table's speed
-    /// there; `None` for a path that stands or already slows down (`s̈ < 0`): a
-    /// deceleration the table builds up with its whole jerk limit, towards its end, the
-    /// brake's share of it could not release in time.
+    /// there; `None` for a path that stands.
     pub fn new(
         state: (f64, f64, f64),
         table_time: f64,
@@ -105,7 +109,7 @@ impl PathStop {
         // The table's highest speed as the reference keeps σ ≤ 1, and σ̇ and σ̈ of the size
         // the time-scale brake's own bounds on them are made for.
         let speed = peak.max(sd);
-        (sd > 0.0 && sdd >= 0.0 && speed.is_finite()).then(|| Self {
+        (sd > 0.0 && speed.is_finite()).then(|| Self {
             brake: ScaleBrake::without_run_out(
                 0.0,
                 sd / speed,
@@ -120,27 +124,28 @@ impl PathStop {
         })
     }
 
-    /// Whether this stop, advanced in steps of [`PREDICTION_STEP_S`] with `cruise` (as
-    /// [`advance`](Self::advance) takes it), stands before it gains on `table` within
-    /// [`PREDICTION_MARGIN`] of its speed at the same path position: then it will not have
-    /// to hand over to the table's time scale. At most [`PREDICTION_STEPS`] steps.
-    pub fn stays_below(
+    /// How long (s, to a step) this stop takes, advanced in steps of [`PREDICTION_STEP_S`]
+    /// with `cruise` (as [`advance`](Self::advance) takes it), if it stands before it gains
+    /// on `table` within [`PREDICTION_MARGIN`] of its speed at the same path position: then
+    /// it will not have to hand over to the table's time scale. `None` if it gains, or
+    /// stands only after [`PREDICTION_STEPS`] steps.
+    pub fn predicted_duration(
         &self,
         table: &Profile,
         mut cruise: impl FnMut(f64, f64) -> TableRates,
-    ) -> bool {
+    ) -> Option<f64> {
         let mut ahead = *self;
-        for _ in 0..PREDICTION_STEPS {
+        for step in 1..=PREDICTION_STEPS {
             ahead.advance(PREDICTION_STEP_S, &mut cruise);
             if ahead.is_stopped() {
-                return true;
+                return Some(step as f64 * PREDICTION_STEP_S);
             }
             let c = ahead.compare(table);
             if c.scale > PREDICTION_CEILING || (c.gaining && c.scale >= PREDICTION_MARGIN) {
-                return false;
+                return None;
             }
         }
-        false
+        None
     }
 
     /// Compares the stop with `table` at its position, and keeps the scale for the next
@@ -294,9 +299,9 @@ mod tests {
     }
 
     #[test]
-    fn a_stop_while_the_path_slows_down_brakes_the_time_scale() {
-        assert!(PathStop::new((0.5, 1.0, -0.1), 0.5, 1.0, 2.0, limits(10.0, 50.0)).is_none());
+    fn a_standing_path_has_no_stop_on_the_path() {
         assert!(PathStop::new((0.5, 0.0, 0.0), 0.5, 1.0, 2.0, limits(10.0, 50.0)).is_none());
+        assert!(PathStop::new((0.5, 1.0, -0.1), 0.5, 1.0, 2.0, limits(10.0, 50.0)).is_some());
     }
 
     /// From a path speeding up, `s̈` comes down from the first tick at the jerk limit (with
@@ -309,7 +314,7 @@ mod tests {
         let tau = time_at(&table, s, 0.0);
         let mut stop =
             PathStop::new((s, sd, sdd), tau, 1.0, 2.0, limits(10.0, 50.0)).expect("a stop");
-        assert!(stop.stays_below(&table, straight));
+        assert!(stop.predicted_duration(&table, straight).is_some());
         stop.advance(DT, straight);
         let (_, _, after) = stop.state();
         assert!(after < sdd - 0.5 * 50.0 * DT, "{after}");
@@ -335,7 +340,7 @@ mod tests {
         let state = table.eval(tau);
         let weak = limits(10.0, 0.5);
         let mut stop = PathStop::new(state, tau, 1.0, 2.0, weak).expect("a stop");
-        assert!(!stop.stays_below(&table, straight));
+        assert!(stop.predicted_duration(&table, straight).is_none());
         let mut ticks = 0;
         let handover = loop {
             stop.advance(DT, straight);

@@ -177,6 +177,34 @@ impl ScaleBrake {
         self.brake.is_stopped()
     }
 
+    /// What a stop from here is expected to take (s) at the table's rates `table` now
+    /// (`dt` the tick it will advance in): the rest of the profile at the current scale
+    /// where it runs the profile out, else the stop at the deceleration and release jerk the
+    /// limits allow now, optimistic where the table's jerk makes it wait.
+    pub fn expected_duration(&self, table: &TableRates, dt: f64) -> f64 {
+        let b = bounds(table, &self.limits, self.sigma(), self.sigma_rate(), dt);
+        let estimate = self.estimate(&b);
+        if estimate.run_out {
+            estimate.left_s
+        } else {
+            estimate.braking_s
+        }
+    }
+
+    /// Whether a stop within the bounds `b` runs the profile out ([`RUN_OUT_FACTOR`]).
+    fn estimate(&self, b: &Bounds) -> Estimate {
+        let sigma = self.sigma().max(f64::MIN_POSITIVE);
+        let braking_s = sigma / b.deceleration + b.deceleration / b.release_jerk;
+        let left_s = (self.duration - self.tau()) / sigma;
+        Estimate {
+            // Without any deceleration now (the table at its own limits) the estimate says
+            // nothing: the stop brakes as soon as it can.
+            run_out: b.deceleration > 0.0 && left_s <= RUN_OUT_FACTOR * braking_s,
+            braking_s,
+            left_s,
+        }
+    }
+
     /// Advances `dt` seconds; `table` gives the table's rates at the current profile time,
     /// asked for only while the stop changes σ̇ (a stop that runs the table out holds it
     /// once it has released it).
@@ -186,14 +214,10 @@ impl ScaleBrake {
             return;
         }
         let b = bounds(&table(), &self.limits, self.sigma(), self.sigma_rate(), dt);
-        let (sigma, left) = (self.sigma(), self.duration - self.tau());
-        let run_out = *self.run_out.get_or_insert_with(|| {
-            let sigma = sigma.max(f64::MIN_POSITIVE);
-            let braking = sigma / b.deceleration + b.deceleration / b.release_jerk;
-            // Without any deceleration now (the table at its own limits) the estimate says
-            // nothing: the stop brakes as soon as it can.
-            b.deceleration > 0.0 && left / sigma <= RUN_OUT_FACTOR * braking
-        });
+        let run_out = match self.run_out {
+            Some(decided) => decided,
+            None => *self.run_out.insert(self.estimate(&b).run_out),
+        };
         let t = self.duration;
         if run_out {
             // The time scale is held from here. A stop during an override ramp first
@@ -217,6 +241,16 @@ impl ScaleBrake {
         }
         self.brake.advance(dt);
     }
+}
+
+/// How a stop of the time scale is expected to go, from the bounds at its start.
+struct Estimate {
+    /// Whether it runs the profile out.
+    run_out: bool,
+    /// The stop at the deceleration and release jerk allowed at the start (s).
+    braking_s: f64,
+    /// The rest of the profile at the scale at the start (s).
+    left_s: f64,
 }
 
 /// The largest deceleration `d = −σ̇` of the time scale and the range of its jerk `σ̈` that

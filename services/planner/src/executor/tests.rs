@@ -1292,6 +1292,46 @@ mod linear {
         }
     }
 
+    /// A GroupStop half-way through a long line whose table already slows down (towards its
+    /// end) brakes the path parameter where the prediction finds that sooner than braking
+    /// the time scale, which would run the table out: here 0.49 s instead of the 0.68 s
+    /// left of the table. Before, a stop there always braked the time scale.
+    #[test]
+    fn a_stop_while_the_table_slows_down_brakes_the_path_where_that_is_sooner() {
+        let mut rig = Rig::new();
+        let start = pose::pose(&tcp_of(&rig.feedback.q));
+        let line = rig.line_by(1, [0.38, -0.26, -0.07], [0.03, 0.03, -0.03]);
+        rig.step(&[line]);
+        let table = |rig: &Rig| match rig.executor.motion.phase {
+            Phase::Running(Running { plan, tau, .. }) => (plan.timing().profile, tau),
+            phase => panic!("not running: {phase:?}"),
+        };
+        assert!(runs_on_table(&rig), "the line is not timed by its table");
+        let half = 0.5 * table(&rig).0.duration();
+        rig.run_until(20_000, |r| table(r).1 >= half);
+        let (profile, tau) = table(&rig);
+        let (_, _, slowing) = profile.eval(tau);
+        assert!(slowing < 0.0, "{slowing}");
+        let stopped_at = rig.trace.len();
+        let stop = rig.command(MotionCommandKind::Stop, 3);
+        rig.step(&[stop]);
+        assert!(matches!(
+            rig.executor.motion.phase,
+            Phase::Braking {
+                stop: crate::motion::Stop::OnPath(_),
+                ..
+            }
+        ));
+        rig.run_until(20_000, |r| r.is_final(3));
+        let took = (rig.trace.len() - stopped_at) as f64 * DT;
+        let left = profile.duration() - tau;
+        assert!(took < 0.8 * left, "{took} s, the table's {left} s left");
+        rig.check_on_tcp_line(0, start, line.pose);
+        rig.check_limits();
+        assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+        assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+    }
+
     /// GroupStops at random times of random lines from home keep the limits, jerk
     /// included, and the line, whether they brake the path parameter, hand over to the
     /// table's time scale or brake that alone.
