@@ -180,7 +180,9 @@ impl ScaleBrake {
     /// What a stop from here is expected to take (s) at the table's rates `table` now
     /// (`dt` the tick it will advance in): the rest of the profile at the current scale
     /// where it runs the profile out, else the stop at the deceleration and release jerk the
-    /// limits allow now, optimistic where the table's jerk makes it wait.
+    /// limits allow now. Optimistic where the table's jerk makes the stop wait; pessimistic
+    /// where the table slows down, whose deceleration leaves the time scale more room as σ
+    /// falls.
     pub fn expected_duration(&self, table: &TableRates, dt: f64) -> f64 {
         let b = bounds(table, &self.limits, self.sigma(), self.sigma_rate(), dt);
         let estimate = self.estimate(&b);
@@ -191,7 +193,8 @@ impl ScaleBrake {
         }
     }
 
-    /// Whether a stop within the bounds `b` runs the profile out ([`RUN_OUT_FACTOR`]).
+    /// How a stop within the bounds `b` is expected to go: whether it runs the profile out
+    /// ([`RUN_OUT_FACTOR`]), and how long either way takes.
     fn estimate(&self, b: &Bounds) -> Estimate {
         let sigma = self.sigma().max(f64::MIN_POSITIVE);
         let braking_s = sigma / b.deceleration + b.deceleration / b.release_jerk;
@@ -422,6 +425,24 @@ mod tests {
         // at RELEASE_SHARE·MARGIN·j: v/a' plus half of both ramps.
         let expected = v / (MARGIN * a) + 0.5 * (a / j + a / (RELEASE_SHARE * j));
         assert!((t - expected).abs() < 3.0 * DT, "{t} vs {expected}");
+    }
+
+    /// From cruise the expected stop is close to the stop itself (its ramps counted at the
+    /// release's jerk); near the table's end it is the rest of the table, which is what a
+    /// stop there takes (the next test).
+    #[test]
+    fn the_expected_stop_is_the_stop_from_cruise_or_the_rest_of_the_table() {
+        let (v, a, j) = (3.0, 12.0, 60.0);
+        let far = ScaleBrake::new(0.0, 1.0, 0.0, 100.0, limits(a, j));
+        let expected = far.expected_duration(&cruise(v), DT);
+        let took = stop_from_cruise(v, a, j);
+        assert!(
+            (expected - took).abs() < 0.05 * took,
+            "{expected} vs {took}"
+        );
+        let near = ScaleBrake::new(0.95, 1.0, 0.0, 1.0, limits(0.1, 1.0));
+        let expected = near.expected_duration(&cruise(1.0), DT);
+        assert!((expected - 0.05).abs() < 1e-12, "{expected}");
     }
 
     #[test]
