@@ -441,10 +441,10 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
             .to_string(),
         "GroupStop: every line on its table stopped after 10 and 50 % of its duration at \
          full override, in 1 ms ticks as the executor brakes (the path parameter where that \
-         is predicted to stand sooner, else the table's time scale), against the shortest stop of the \
-         slowest joint alone from the point commanded then (its acceleration to the limit \
-         and back, without the path: a lower bound); braking the time scale alone: how \
-         every stop on a table braked before, side by side"
+         is predicted to stand sooner, else the table's time scale), against the shortest \
+         stop of the slowest joint alone from the point commanded then (its acceleration to \
+         the limit and back, without the path: a lower bound); braking the time scale alone: \
+         how every stop on a table braked before, side by side"
             .to_string(),
     ];
     for (share, set) in stops::STOP_AT.iter().zip(&results.stops.at) {

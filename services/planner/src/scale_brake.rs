@@ -185,27 +185,19 @@ impl ScaleBrake {
     /// falls.
     pub fn expected_duration(&self, table: &TableRates, dt: f64) -> f64 {
         let b = bounds(table, &self.limits, self.sigma(), self.sigma_rate(), dt);
-        let estimate = self.estimate(&b);
-        if estimate.run_out {
-            estimate.left_s
-        } else {
-            estimate.braking_s
-        }
+        self.estimate(&b).1
     }
 
     /// How a stop within the bounds `b` is expected to go: whether it runs the profile out
-    /// ([`RUN_OUT_FACTOR`]), and how long either way takes.
-    fn estimate(&self, b: &Bounds) -> Estimate {
+    /// ([`RUN_OUT_FACTOR`]), and how long it takes (s).
+    fn estimate(&self, b: &Bounds) -> (bool, f64) {
         let sigma = self.sigma().max(f64::MIN_POSITIVE);
         let braking_s = sigma / b.deceleration + b.deceleration / b.release_jerk;
         let left_s = (self.duration - self.tau()) / sigma;
-        Estimate {
-            // Without any deceleration now (the table at its own limits) the estimate says
-            // nothing: the stop brakes as soon as it can.
-            run_out: b.deceleration > 0.0 && left_s <= RUN_OUT_FACTOR * braking_s,
-            braking_s,
-            left_s,
-        }
+        // Without any deceleration now (the table at its own limits) the estimate says
+        // nothing: the stop brakes as soon as it can.
+        let run_out = b.deceleration > 0.0 && left_s <= RUN_OUT_FACTOR * braking_s;
+        (run_out, if run_out { left_s } else { braking_s })
     }
 
     /// Advances `dt` seconds; `table` gives the table's rates at the current profile time,
@@ -219,7 +211,7 @@ impl ScaleBrake {
         let b = bounds(&table(), &self.limits, self.sigma(), self.sigma_rate(), dt);
         let run_out = match self.run_out {
             Some(decided) => decided,
-            None => *self.run_out.insert(self.estimate(&b).run_out),
+            None => *self.run_out.insert(self.estimate(&b).0),
         };
         let t = self.duration;
         if run_out {
@@ -244,16 +236,6 @@ impl ScaleBrake {
         }
         self.brake.advance(dt);
     }
-}
-
-/// How a stop of the time scale is expected to go, from the bounds at its start.
-struct Estimate {
-    /// Whether it runs the profile out.
-    run_out: bool,
-    /// The stop at the deceleration and release jerk allowed at the start (s).
-    braking_s: f64,
-    /// The rest of the profile at the scale at the start (s).
-    left_s: f64,
 }
 
 /// The largest deceleration `d = −σ̇` of the time scale and the range of its jerk `σ̈` that

@@ -59,15 +59,6 @@ pub struct Peaks {
 }
 
 impl Peaks {
-    /// The higher of each.
-    fn worst(self, other: Self) -> Self {
-        Self {
-            velocity: self.velocity.max(other.velocity),
-            acceleration: self.acceleration.max(other.acceleration),
-            jerk: self.jerk.max(other.jerk),
-        }
-    }
-
     /// Takes in the step from `before` to `after`, a tick apart.
     fn take(&mut self, limits: &JointLimitsRad, before: &JointPoint, after: &JointPoint) {
         for i in 0..AXES {
@@ -155,11 +146,12 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
                     &stopped.joints,
                 );
                 let on_path = matches!(ours, Stop::OnPath(_));
-                let ran = run(ours, &stopped, &robot.limits, &mut ours_ticks);
-                set.ours_s.push(ran.duration_s);
-                set.ours_peaks = ran.peaks.worst(set.ours_peaks);
+                let limits = &robot.limits;
+                let (took, handed_over) =
+                    run(ours, &stopped, limits, &mut ours_ticks, &mut set.ours_peaks);
+                set.ours_s.push(took);
                 set.path_stops += usize::from(on_path);
-                set.handovers += usize::from(on_path && ran.handed_over);
+                set.handovers += usize::from(handed_over);
                 let time_scale = Stop::TimeScale(ScaleBrake::new(
                     stopped.tau,
                     1.0,
@@ -167,9 +159,14 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
                     m.timing().profile.duration(),
                     *m.scale_limits(),
                 ));
-                let ran = run(time_scale, &stopped, &robot.limits, &mut time_scale_ticks);
-                set.time_scale_s.push(ran.duration_s);
-                set.time_scale_peaks = ran.peaks.worst(set.time_scale_peaks);
+                let (took, _) = run(
+                    time_scale,
+                    &stopped,
+                    limits,
+                    &mut time_scale_ticks,
+                    &mut set.time_scale_peaks,
+                );
+                set.time_scale_s.push(took);
                 decisions.push(stopped);
             }
             set
@@ -227,37 +224,30 @@ fn slowest_joint(robot: &Robot, stopped: &Stopped) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// One stop run to rest.
-struct Ran {
-    /// In ticks; NaN if it never comes to rest.
-    duration_s: f64,
-    /// What it commanded, within `limits` (of [`run`]) where ≤ 1.
-    peaks: Peaks,
-    /// Whether a stop of the path parameter handed over to the time scale.
-    handed_over: bool,
-}
-
-/// Runs `stop` to rest in ticks, each tick's clock time to `times`.
-fn run(mut stop: Stop, stopped: &Stopped, limits: &JointLimitsRad, times: &mut TickTimes) -> Ran {
+/// Runs `stop` to rest in ticks, each tick's clock time to `times` and what it commanded
+/// (over `limits`) to `peaks`: the time it takes (NaN if it never stands) and whether a
+/// stop of the path parameter handed over to the time scale.
+fn run(
+    mut stop: Stop,
+    stopped: &Stopped,
+    limits: &JointLimitsRad,
+    times: &mut TickTimes,
+    peaks: &mut Peaks,
+) -> (f64, bool) {
     let mut scale = TimeScale::at(1.0);
     let mut before = stopped.point();
-    let mut ran = Ran {
-        duration_s: f64::NAN,
-        peaks: Peaks::default(),
-        handed_over: false,
-    };
+    let mut handed_over = false;
     for tick in 1..=MAX_TICKS {
         let braking = stop;
         let start = Instant::now();
         let next = stop.advance(&stopped.plan, TICK_S, &mut scale, &before.q);
         times.record(&braking, elapsed_ns(start));
-        ran.peaks.take(limits, &before, &next.point);
-        ran.handed_over |= matches!(braking, Stop::OnPath(_)) && matches!(stop, Stop::TimeScale(_));
+        peaks.take(limits, &before, &next.point);
+        handed_over |= matches!(braking, Stop::OnPath(_)) && matches!(stop, Stop::TimeScale(_));
         before = next.point;
         if next.stopped {
-            ran.duration_s = tick as f64 * TICK_S;
-            break;
+            return (tick as f64 * TICK_S, handed_over);
         }
     }
-    ran
+    (f64::NAN, handed_over)
 }

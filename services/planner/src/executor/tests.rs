@@ -229,6 +229,15 @@ impl Rig {
         assert_within_limits(&self.trace, &self.limits, DT);
     }
 
+    /// A stop on a line: the arm stands on the TCP's segment from `start` to `target`,
+    /// came there within the limits and `jerk_factor` times the jerk limits.
+    fn check_stood_on_tcp_line(&self, start: [f64; 6], target: [f64; 6], jerk_factor: f64) {
+        self.check_on_tcp_line(0, start, target);
+        self.check_limits();
+        assert_jerk_within(&self.trace, &self.limits, DT, jerk_factor);
+        assert_eq!(self.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+    }
+
     /// Every applied point since `from` lies on the segment from `start` to `target`.
     fn check_on_line(&self, from: usize, start: [f64; AXES], target: [f64; AXES]) {
         let lead = (0..AXES)
@@ -1210,10 +1219,7 @@ mod linear {
             rig.step(&[stop]);
             rig.run_until(20_000, |r| r.is_final(3));
             let took = (rig.trace.len() - stopped_at) as f64 * DT;
-            rig.check_on_tcp_line(0, start, target);
-            rig.check_limits();
-            assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
-            assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+            rig.check_stood_on_tcp_line(start, target, 1.0);
             // Never longer than running the table out; early on, far shorter.
             assert!(
                 took <= left + 2.0 * DT,
@@ -1280,10 +1286,7 @@ mod linear {
                 let start = pose::pose(&tcp_of(&rig.feedback.q));
                 let (took, slowest, target) =
                     stop_against_the_slowest_joint(&mut rig, shift, ticks);
-                rig.check_on_tcp_line(0, start, target);
-                rig.check_limits();
-                assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
-                assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+                rig.check_stood_on_tcp_line(start, target, 1.0);
                 assert!(
                     took <= 1.2 * slowest,
                     "{shift:?}, {ticks} ticks: {took} s, the slowest joint alone {slowest} s"
@@ -1326,10 +1329,7 @@ mod linear {
         let took = (rig.trace.len() - stopped_at) as f64 * DT;
         let left = profile.duration() - tau;
         assert!(took < 0.8 * left, "{took} s, the table's {left} s left");
-        rig.check_on_tcp_line(0, start, line.pose);
-        rig.check_limits();
-        assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
-        assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+        rig.check_stood_on_tcp_line(start, line.pose, 1.0);
     }
 
     /// GroupStops at random times of random lines from home keep the limits, jerk
@@ -1372,10 +1372,7 @@ mod linear {
         let stop = rig.command(MotionCommandKind::Stop, job);
         rig.step(&[stop]);
         rig.run_until(20_000, |r| r.is_final(job));
-        rig.check_on_tcp_line(0, line.0, line.1);
-        rig.check_limits();
-        assert_jerk_within(&rig.trace, &rig.limits, DT, jerk_factor);
-        assert_eq!(rig.trace.last().map(|p| p.qd), Some([0.0; AXES]));
+        rig.check_stood_on_tcp_line(line.0, line.1, jerk_factor);
     }
 
     /// GroupStop at `at` % of the line from home by `shift` and `turn` of the TCP, timed by
