@@ -122,6 +122,7 @@ fn main() {
         by_function.entry(t.function.as_str()).or_default().push(t);
     }
     let mut lengths = Vec::new();
+    let mut requests = Vec::new();
     for (function, tables) in &by_function {
         let type_id = spec.command_types[*function];
         writeln!(out, "/// {function} (type {type_id}).").unwrap();
@@ -225,10 +226,10 @@ fn main() {
             }
             let mut sorted: Vec<_> = fields.into_iter().collect();
             sorted.sort_by_key(|(_, (o, _))| *o);
-            for (name, (offset, layout)) in sorted {
+            for (name, (offset, layout)) in &sorted {
                 writeln!(out, "        pub const {name}: Field = Field {{ offset: {offset}, layout: {layout} }};").unwrap();
             }
-            for (name, members) in groups {
+            for (name, members) in &groups {
                 writeln!(out, "        /// {} in order.", members.join(", ")).unwrap();
                 writeln!(
                     out,
@@ -236,6 +237,44 @@ fn main() {
                     members.join(", ")
                 )
                 .unwrap();
+            }
+            if module == "request" {
+                // By name at run time, for clients that build requests from text.
+                writeln!(
+                    out,
+                    "        /// Every field by its snake_case name, in payload order."
+                )
+                .unwrap();
+                writeln!(
+                    out,
+                    "        pub const FIELDS: [(&str, Field); {}] = [",
+                    sorted.len()
+                )
+                .unwrap();
+                for (name, _) in &sorted {
+                    writeln!(out, "            ({:?}, {name}),", name.to_lowercase()).unwrap();
+                }
+                writeln!(out, "        ];").unwrap();
+                writeln!(
+                    out,
+                    "        /// The six-value groups (joints J1..J6, poses X..RZ) by snake_case name."
+                )
+                .unwrap();
+                writeln!(
+                    out,
+                    "        pub const GROUPS: [(&str, [Field; 6]); {}] = [",
+                    groups.len()
+                )
+                .unwrap();
+                for (name, _) in &groups {
+                    let key = name
+                        .strip_suffix("_J1_J6")
+                        .or_else(|| name.strip_suffix("_X_RZ"))
+                        .unwrap_or(name);
+                    writeln!(out, "            ({:?}, {name}),", key.to_lowercase()).unwrap();
+                }
+                writeln!(out, "        ];").unwrap();
+                requests.push(snake(function));
             }
             writeln!(out, "    }}").unwrap();
         }
@@ -262,6 +301,30 @@ fn main() {
     lengths.sort();
     for (id, req, rsp, _, name) in &lengths {
         writeln!(out, "    ({id}, {name:?}, {req}, {rsp}),").unwrap();
+    }
+    writeln!(out, "];").unwrap();
+
+    writeln!(
+        out,
+        "/// The request table of every command type that has one, by function name."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub const REQUESTS: [crate::srci::payload::RequestTable; {}] = [",
+        requests.len()
+    )
+    .unwrap();
+    for (function, tables) in &by_function {
+        let module = snake(function);
+        if !tables.iter().any(|t| t.direction == "send") {
+            continue;
+        }
+        writeln!(
+            out,
+            "    crate::srci::payload::RequestTable {{ function: {function:?}, command_type: {module}::TYPE, len: {module}::request::LEN, fields: &{module}::request::FIELDS, groups: &{module}::request::GROUPS }},"
+        )
+        .unwrap();
     }
     writeln!(out, "];").unwrap();
 

@@ -69,6 +69,21 @@ impl Field {
     }
 }
 
+/// The request table of one command type, for building requests by field name
+/// ([`tables::REQUESTS`](super::tables::REQUESTS)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RequestTable {
+    /// The specification's function name, e.g. `MoveLinearAbsolute`.
+    pub function: &'static str,
+    pub command_type: u16,
+    /// Full payload length in bytes, header included.
+    pub len: usize,
+    /// Every field by its snake_case name (`position_x`, `blending_parameter`, ...).
+    pub fields: &'static [(&'static str, Field)],
+    /// The six-value groups by name (`position` for `Position.X` .. `Position.RZ`).
+    pub groups: &'static [(&'static str, [Field; 6])],
+}
+
 /// Reads fields of a received payload; bytes past its end read as zero.
 #[derive(Debug, Clone, Copy)]
 pub struct PayloadReader<'a> {
