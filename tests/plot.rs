@@ -58,6 +58,33 @@ fn rc(args: &[&str], cwd: &Path) -> (bool, String, String) {
     )
 }
 
+/// Runs `rc plc PROGRAM --plot` against `c` (which must succeed): its stdout and the plot.
+fn plc_with_plot(c: &Controller, program: &Path) -> (String, String) {
+    let svg_path = c.dir.join("run.svg");
+    let (ok, stdout, stderr) = rc(
+        &[
+            "plc",
+            program.to_str().expect("utf-8 path"),
+            "--addr",
+            &c.addr,
+            "--config",
+            c.dir.join("default.toml").to_str().expect("utf-8 path"),
+            "--plot",
+            svg_path.to_str().expect("utf-8 path"),
+        ],
+        &c.dir,
+    );
+    assert!(ok, "rc plc failed\nstdout:\n{stdout}\nstderr:\n{stderr}");
+    let svg = std::fs::read_to_string(&svg_path).expect("the plot file");
+    (stdout, svg)
+}
+
+/// The configuration `c` runs with.
+fn configuration(c: &Controller) -> shared_types::config::Config {
+    shared_types::config::Config::load(Some(&c.dir.join("default.toml")))
+        .expect("the test's configuration")
+}
+
 /// The opening tags of the elements named `element` in `svg`.
 fn elements<'a>(svg: &'a str, element: &str) -> Vec<&'a str> {
     let open = format!("<{element} ");
@@ -111,32 +138,12 @@ fn rc_plc_with_plot_writes_the_motion_of_the_run() {
     let c = Controller::start("plot");
     let program = c.dir.join("plot.toml");
     std::fs::write(&program, PROGRAM).expect("write program");
-    let svg_path = c.dir.join("run.svg");
-    let config = c.dir.join("default.toml");
-    let (ok, stdout, stderr) = rc(
-        &[
-            "plc",
-            program.to_str().expect("utf-8 path"),
-            "--addr",
-            &c.addr,
-            "--config",
-            config.to_str().expect("utf-8 path"),
-            "--plot",
-            svg_path.to_str().expect("utf-8 path"),
-        ],
-        &c.dir,
-    );
-    assert!(ok, "rc plc failed\nstdout:\n{stdout}\nstderr:\n{stderr}");
+    let (stdout, svg) = plc_with_plot(&c, &program);
     assert!(stdout.contains("plot written to"), "{stdout}");
-    let svg = std::fs::read_to_string(&svg_path).expect("the plot file");
     assert!(svg.starts_with("<?xml") && svg.trim_end().ends_with("</svg>"));
     assert!(svg.contains("rc plc plot test"), "title names the program");
 
-    let limits = shared_types::config::Config::load(Some(&config))
-        .expect("the test's configuration")
-        .robot
-        .joints
-        .max_velocity_deg_s;
+    let limits = configuration(&c).robot.joints.max_velocity_deg_s;
     for joint in 1..=6 {
         let positions = trace_values(&svg, "positions", joint);
         let last = *positions.last().expect("a position trace");
@@ -165,6 +172,66 @@ fn rc_plc_with_plot_writes_the_motion_of_the_run() {
             markers.iter().filter(|s| **s == state).count() >= 2,
             "two moves {state}: {markers:?}"
         );
+    }
+}
+
+/// The shipped example `plc-client/programs/cell.toml`, whose moves are written with the
+/// specification's field names: every step passes through the real processes, its two
+/// corner blends (line into circle, circle into line) and its interrupt show in the plot, the
+/// TCP keeps its speed limit and the arm ends at home.
+#[test]
+fn the_shipped_cell_program_runs_its_lines_circle_blends_and_interrupt() {
+    let c = Controller::start("cell");
+    let program = Path::new(env!("CARGO_MANIFEST_DIR")).join("plc-client/programs/cell.toml");
+    let (stdout, svg) = plc_with_plot(&c, &program);
+    assert!(
+        stdout.contains("result: SUCCESS (17/17 steps passed)"),
+        "{stdout}"
+    );
+    for call in [
+        "MoveLinearAbsolute",
+        "MoveCircularAbsolute",
+        "MoveLinearRelative",
+        "WaitTime",
+        "MoveDirectAbsolute",
+        "GroupInterrupt",
+        "GroupContinue",
+    ] {
+        assert!(
+            stdout
+                .lines()
+                .any(|l| l.contains(&format!(" {call} ")) && l.contains(" DONE ")),
+            "{call} DONE in\n{stdout}"
+        );
+    }
+    let spans = |class: &str| {
+        elements(&svg, "rect")
+            .into_iter()
+            .filter(|r| r.contains(&format!("class=\"{class}\"")) && r.contains("y=\"100\""))
+            .map(|r| attribute_f64(r, "width"))
+            .collect::<Vec<_>>()
+    };
+    assert!(spans("blending").len() >= 2, "two blends: {svg}");
+    // From the GroupInterrupt to the GroupContinue 300 ms after the arm stood: about 0.7 s
+    // of the 6-odd seconds over 940 px.
+    assert!(
+        spans("interrupted").iter().any(|w| *w > 20.0),
+        "the interrupt: {:?}",
+        spans("interrupted")
+    );
+    let limit = configuration(&c).robot.cartesian.max_velocity_mm_s;
+    let tcp = trace_values(&svg, "tcp", 0);
+    let peak = tcp.iter().fold(0.0f64, |m, v| m.max(*v));
+    assert!(
+        peak > 100.0 && peak <= limit * 1.01,
+        "TCP speed peaks at {peak:.0} mm/s, limit {limit}"
+    );
+    for joint in 1..=6 {
+        let last = *trace_values(&svg, "positions", joint)
+            .last()
+            .expect("a position trace");
+        let home = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0][joint - 1];
+        assert!((last - home).abs() < 1.0, "J{joint} ends at {last:.2} deg");
     }
 }
 

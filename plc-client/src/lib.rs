@@ -17,6 +17,7 @@ pub mod program;
 pub mod report;
 pub mod request;
 pub mod response;
+pub mod table_step;
 #[cfg(test)]
 mod testing;
 pub mod transport;

@@ -22,6 +22,7 @@ use serde::Deserialize;
 use shared_types::srci::message::state;
 
 use crate::request::{MoveAxesAbsolute, Request};
+use crate::table_step::{self, PERCENT_MAX};
 
 /// Keys every step accepts.
 const COMMON_KEYS: &[&str] = &[
@@ -61,9 +62,6 @@ pub const CALLS: &[(&str, &[&str])] = &[
     ("ReadRobotData", &[]),
     ("Raw", &["command_type", "execution_mode", "payload"]),
 ];
-
-/// Largest percentage a UINT percent×100 field carries.
-const PERCENT_MAX: f64 = 655.34;
 
 /// A program that could not be read.
 #[derive(Debug, thiserror::Error)]
@@ -240,10 +238,17 @@ fn parse_step(table: &toml::Table) -> Result<Step, StepError> {
     };
     let err = |message: String| (Some(call.clone()), message);
     let Some((_, keys)) = CALLS.iter().find(|(name, _)| *name == call) else {
+        if let Some(request_table) = table_step::find(&call) {
+            return parse_table_step(table, call, request_table);
+        }
         let known: Vec<&str> = CALLS.iter().map(|(n, _)| *n).collect();
         return Err((
             None,
-            format!("unknown call `{call}`; known calls: {}", known.join(", ")),
+            format!(
+                "unknown call `{call}`; known calls: {}, and any request of the \
+                 specification by its function name (MoveLinearAbsolute, WaitTime, ...)",
+                known.join(", ")
+            ),
         ));
     };
     for key in table.keys() {
@@ -258,7 +263,28 @@ fn parse_step(table: &toml::Table) -> Result<Step, StepError> {
     }
     let def = deserialize_step(table).map_err(err)?;
     let request = build_request(&call, &def).map_err(err)?;
-    Ok(Step {
+    Ok(step(call, request, &def))
+}
+
+/// A step of a call without a typed request: `request_table`'s fields by name
+/// ([`table_step`]).
+fn parse_table_step(
+    table: &toml::Table,
+    call: String,
+    request_table: &shared_types::srci::payload::RequestTable,
+) -> Result<Step, StepError> {
+    let (common, parameters): (toml::Table, toml::Table) = table
+        .clone()
+        .into_iter()
+        .partition(|(key, _)| COMMON_KEYS.contains(&key.as_str()));
+    let err = |message: String| (Some(call.clone()), message);
+    let def = deserialize_step(&common).map_err(err)?;
+    let request = table_step::request(request_table, &parameters).map_err(err)?;
+    Ok(step(call, request, &def))
+}
+
+fn step(call: String, request: Request, def: &StepDef) -> Step {
+    Step {
         call,
         request,
         wait: def.wait.unwrap_or_default(),
@@ -266,7 +292,7 @@ fn parse_step(table: &toml::Table) -> Result<Step, StepError> {
         expect_code: def.expect_code,
         delay: Duration::from_millis(def.delay_ms.unwrap_or(0)),
         timeout: def.timeout_ms.map(Duration::from_millis),
-    })
+    }
 }
 
 /// Deserializes the step; on failure, finds the key whose value is wrong by checking each
@@ -457,6 +483,34 @@ mod tests {
             e.contains("unknown key `joints`; GroupReset takes: wait"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn any_request_of_the_tables_is_a_step_with_its_field_names() {
+        let p = Program::parse(
+            r#"
+            [[step]]
+            call = "MoveLinearAbsolute"
+            position = [450.0, -120.0, 300.0, 180.0, 0.0, 90.0]
+            velocity_rate = 50.0
+            wait = "active"
+            delay_ms = 20
+            "#,
+            "t",
+        )
+        .unwrap();
+        let s = &p.steps[0];
+        assert_eq!((s.wait, s.delay), (Wait::Active, Duration::from_millis(20)));
+        assert_eq!(s.request.name(), "MoveLinearAbsolute");
+        assert_eq!(s.request.execution_mode(), 0);
+
+        let e = step_error("[[step]]\ncall = \"MoveLinearAbsolute\"\ntool_no = 300\n");
+        assert!(
+            e.contains("step 1 (MoveLinearAbsolute): key `tool_no`: 300 is outside 0..=255"),
+            "{e}"
+        );
+        let e = step_error("[[step]]\ncall = \"WaitTime\"\ntime = 5\nwait = \"soon\"\n");
+        assert!(e.contains("step 1 (WaitTime): key `wait`"), "{e}");
     }
 
     #[test]

@@ -760,7 +760,7 @@ pub fn command_name(command_type: u16) -> &'static str {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use shared_types::srci::payload::PayloadReader;
 
@@ -793,7 +793,7 @@ mod tests {
     }
 
     /// The whole encoded payload of a function block's request.
-    fn encoded(r: &Request) -> Vec<u8> {
+    pub(crate) fn encoded(r: &Request) -> Vec<u8> {
         let mut out = Vec::new();
         r.encode(1, &mut out);
         out
