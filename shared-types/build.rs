@@ -89,11 +89,44 @@ fn skip(name: &str) -> bool {
     n.is_empty() || n == "-" || n.starts_with("Reserve") || n.starts_with("Res") && n.len() <= 4
 }
 
+/// Defects of the specification's request tables, corrected before the fields are made so
+/// that the server and the clients read them alike: (function, offset, type, names) replace
+/// the entry at that offset.
+///
+/// Table 6-357 (MoveCircularRelative) lists ConfigMode[1] and ReferenceType as bits of byte
+/// 111 and leaves byte 112 reserved: ConfigMode[1] is a full byte as in
+/// MoveCircularAbsolute's table (the Shoulder and Wrist modes do not fit a bit), so
+/// ReferenceType takes the only free byte, the one before TurnMode.
+const CORRECTIONS: [(&str, usize, &str, &[&str]); 2] = [
+    ("MoveCircularRelative", 111, "BYTE", &["ConfigMode[1]"]),
+    ("MoveCircularRelative", 112, "USINT", &["ReferenceType"]),
+];
+
+/// Applies [`CORRECTIONS`]; a correction that finds no entry to replace stops the build (the
+/// data file changed under it).
+fn correct(spec: &mut Spec) {
+    for (function, offset, ty, names) in CORRECTIONS {
+        let entry = spec
+            .tables
+            .iter_mut()
+            .filter(|t| t.function == function && t.direction == "send")
+            .flat_map(|t| t.entries.iter_mut())
+            .find(|(o, _, _)| *o == offset)
+            .unwrap_or_else(|| panic!("no entry at {offset} of {function}'s request table"));
+        *entry = (
+            offset,
+            ty.to_owned(),
+            names.iter().map(|n| (*n).to_owned()).collect(),
+        );
+    }
+}
+
 fn main() {
     let path = "srci/spec_payload_tables.json";
     println!("cargo:rerun-if-changed={path}");
     let text = std::fs::read_to_string(path).expect("read spec_payload_tables.json");
-    let spec: Spec = serde_json::from_str(&text).expect("parse spec_payload_tables.json");
+    let mut spec: Spec = serde_json::from_str(&text).expect("parse spec_payload_tables.json");
+    correct(&mut spec);
 
     let mut out = String::new();
     writeln!(

@@ -344,6 +344,22 @@ mod tests {
         assert_eq!(p.u16(mla::TIME), 0, "fields left out are 0");
     }
 
+    /// Table 6-357's ConfigMode[1] and ReferenceType, which it lists as bits of one byte,
+    /// land where the server reads them (the correction in shared-types/build.rs).
+    #[test]
+    fn a_relative_circle_takes_its_config_mode_and_reference_type_as_the_server_reads_them() {
+        use tables::move_circular_relative::request as mcr;
+        let r = request_of(
+            "MoveCircularRelative",
+            "config_mode = [0x11, 0x01]\nreference_type = 1\nturn_mode = 2\n",
+        )
+        .unwrap();
+        let bytes = encoded(&r);
+        assert_eq!(mcr::CONFIG_MODE.offset, 110);
+        assert_eq!(bytes[110..114], [0x11, 0x01, 1, 2]);
+        assert_eq!(PayloadReader::new(&bytes).u8(mcr::REFERENCE_TYPE), 1);
+    }
+
     #[test]
     fn the_execution_mode_follows_the_command() {
         let mode =

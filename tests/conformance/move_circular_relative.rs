@@ -3,7 +3,7 @@
 //! mode the AuxPoint's vector turns with those axes.
 
 use shared_types::srci::message::{code, state};
-use shared_types::srci::payload::{Field, Layout, PayloadReader, PayloadWriter, WireType};
+use shared_types::srci::payload::{PayloadReader, PayloadWriter};
 use shared_types::srci::tables::move_circular_relative as mcr;
 
 use super::move_requests::{
@@ -11,13 +11,6 @@ use super::move_requests::{
     move_request, set_pose, shifted, tcp,
 };
 use crate::common::{enabled, expect_error, reset_and_enable};
-
-/// ReferenceType: table 6-357 puts it among the bits of ConfigMode[1]; it is the byte before
-/// TurnMode (see the interpreter's circular module).
-const REFERENCE_TYPE: Field = Field {
-    offset: mcr::request::TURN_MODE.offset - 1,
-    layout: Layout::Scalar(WireType::U8),
-};
 
 fn relative_arc(
     aux: [f64; 6],
@@ -31,16 +24,12 @@ fn relative_arc(
         mcr::request::DECELERATION_RATE,
         mcr::request::JERK_RATE,
     ];
-    let config_mode = Field {
-        offset: mcr::request::CONFIG_MODE_ARRAY.offset,
-        layout: Layout::Array(WireType::U8, 2),
-    };
     move_request(mcr::TYPE, rates, |w| {
         set_pose(w, mcr::request::AUX_POINT_X_RZ, aux);
         set_pose(w, mcr::request::END_POINT_X_RZ, end);
-        keep_configuration(w, config_mode, mcr::request::TURN_MODE);
+        keep_configuration(w, mcr::request::CONFIG_MODE, mcr::request::TURN_MODE);
         w.set_u8(mcr::request::ORI_MODE, 1);
-        w.set_u8(REFERENCE_TYPE, reference_type);
+        w.set_u8(mcr::request::REFERENCE_TYPE, reference_type);
         edit(w);
     })
 }

@@ -10,17 +10,17 @@
 //! move, with the ReferenceType's axes exactly as the EndPoint does. PathChoice then selects
 //! the shorter (0) or the longer (1) of the two arcs, as PLCopen's PathChoice does.
 //!
-//! Spec-table defects handled here: table 6-357 (MoveCircularRelative) lists ConfigMode[1]
-//! and ReferenceType as bits of byte 111 and TurnMode at 113; ConfigMode[1] is a full byte
-//! (as in MoveCircularAbsolute), so ReferenceType is taken from the byte before TurnMode,
-//! the only one free. PathChoice and Manipulation share byte 108 (bits 0 and 1).
+//! Table 6-357 (MoveCircularRelative) lists ConfigMode[1] and ReferenceType as bits of byte
+//! 111; the generated fields have them corrected (ConfigMode[1] a full byte, ReferenceType
+//! the byte before TurnMode: `CORRECTIONS` in shared-types/build.rs). PathChoice and
+//! Manipulation share byte 108 (bits 0 and 1).
 
 use shared_types::ipc::{MotionCommand, MotionCommandKind};
 use shared_types::srci::message::CommandHeader;
 use shared_types::srci::message::code::{
     ANGLE_ONLY_CENTER_WITH_ANGLE, INVALID_CIRC_MODE, INVALID_CIRC_PLANE, TOLERANCE_ONLY_CENTER,
 };
-use shared_types::srci::payload::{Field, Layout, PayloadReader, WireType};
+use shared_types::srci::payload::{Field, PayloadReader};
 use shared_types::srci::tables::{move_circular_absolute as mca, move_circular_relative as mcr};
 
 use super::motion::{self, CartesianLayout, DynamicsLayout, MoveLayout, wire_pose};
@@ -146,11 +146,7 @@ const MOVE_CIRCULAR_RELATIVE: CircularLayout = CircularLayout {
         elbow: mcr::request::ELBOW_2,
         wrist: mcr::request::WRIST_2,
         turn_number: mcr::request::END_POINT_TURN_NUMBER,
-        // ConfigMode[0..1] from where the table starts it (see the module documentation).
-        config_mode: Field {
-            offset: mcr::request::CONFIG_MODE_ARRAY.offset,
-            layout: Layout::Array(WireType::U8, 2),
-        },
+        config_mode: mcr::request::CONFIG_MODE,
         turn_mode: mcr::request::TURN_MODE,
     },
     aux: mcr::request::AUX_POINT_X_RZ,
@@ -160,10 +156,7 @@ const MOVE_CIRCULAR_RELATIVE: CircularLayout = CircularLayout {
     angle: mcr::request::ANGLE,
     path_choice: mcr::request::PATH_CHOICE,
     ori_mode: mcr::request::ORI_MODE,
-    reference_type: Some(Field {
-        offset: mcr::request::TURN_MODE.offset - 1,
-        layout: Layout::Scalar(WireType::U8),
-    }),
+    reference_type: Some(mcr::request::REFERENCE_TYPE),
 };
 
 /// Checks a MoveCircularAbsolute or MoveCircularRelative request and turns it into a
