@@ -6,8 +6,8 @@
 //! with the requested Enabled bit, and a later EnableRobot step updates that command under
 //! its CmdID instead of sending a new one. Once any step has failed, no further step is
 //! submitted (the rest are SKIPPED). A move's reached joints come from the first
-//! ReadActualPosition step submitted after the move was DONE and before the next move; a
-//! deviation above the position tolerance fails the move.
+//! ReadActualPosition step submitted after the move was DONE and before the next move (of
+//! any kind, jogs included); a deviation above the position tolerance fails the move.
 
 use std::time::Duration;
 
@@ -205,6 +205,8 @@ impl<T: Transport> Executor<'_, T> {
             Request::EnableRobot { .. } => self.live_enable = Some(handle),
             Request::MoveAxesAbsolute(_) => self.last_move = Some(i),
             Request::ReadActualPosition { .. } => t.position_for = position_for,
+            // A position read after another move no longer tells where this one ended.
+            _ if step.request.moves_the_arm() => self.last_move = None,
             _ => {}
         }
         (self.progress)(&ProgressEvent::StepStarted {
@@ -549,6 +551,35 @@ mod tests {
         assert_eq!(s[1].note, "expected DONE");
         assert_eq!(s[2].state, "SKIPPED");
         assert!(!report.success());
+    }
+
+    /// A move sent by its table's field names between a MoveAxesAbsolute and the read-back
+    /// leaves the MoveAxesAbsolute without a reached position (it used to be compared with
+    /// where the later move ended).
+    #[test]
+    fn a_position_read_after_another_move_is_not_the_first_moves() {
+        let program = Program::parse(
+            r#"
+            [[step]]
+            call = "MoveAxesAbsolute"
+            joints = [10.0, 90.0, 90.0, 90.0, -90.0, 10.0]
+            [[step]]
+            call = "MoveLinearRelative"
+            distance = [0.0, 0.0, 50.0, 0.0, 0.0, 0.0]
+            expect = "ERROR"
+            [[step]]
+            call = "ReadActualPosition"
+            "#,
+            "t",
+        )
+        .unwrap();
+        let report =
+            run_program_over(FakeRobot::new(256), &program, &options(), &mut |_| {}).unwrap();
+        let s = &report.steps;
+        assert_eq!(s[0].state, "DONE");
+        assert_eq!(s[0].reached, None);
+        assert!(s[2].reached.is_some(), "the read itself shows the joints");
+        assert!(report.success());
     }
 
     #[test]

@@ -128,6 +128,12 @@ impl Request {
         }
     }
 
+    /// Whether the command moves the arm: a move, a jog or ReturnToPrimary, typed or not.
+    pub fn moves_the_arm(&self) -> bool {
+        let name = self.name();
+        name.starts_with("Move") || name == "GroupJog" || name == "ReturnToPrimary"
+    }
+
     /// Whether the command is of Enable type: it stays ACTIVE with parameters that can be
     /// updated under the same CmdID, instead of running to DONE.
     pub fn is_enable_type(&self) -> bool {
