@@ -44,6 +44,12 @@ pub fn find(function: &str) -> Option<&'static RequestTable> {
     tables::REQUESTS.iter().find(|t| t.function == function)
 }
 
+/// Whether the command is of Enable type (GroupJog, ReturnToPrimary, ...): its request has
+/// an Enable bit.
+pub fn is_enable_type(table: &RequestTable) -> bool {
+    table.fields.iter().any(|(name, _)| *name == "enable")
+}
+
 /// The keys `table` takes, header keys first.
 pub fn keys(table: &RequestTable) -> Vec<&'static str> {
     let fields = table.fields.iter().map(|(name, _)| *name);
@@ -377,6 +383,8 @@ mod tests {
             Ok(execution_mode::PARALLEL)
         );
         assert_eq!(mode("GroupJog", ""), Ok(execution_mode::SEQUENCE_SECONDARY));
+        assert!(is_enable_type(find("GroupJog").unwrap()));
+        assert!(!is_enable_type(find("MoveLinearAbsolute").unwrap()));
         assert_eq!(
             mode("MoveDirectAbsolute", "execution_mode = 7"),
             Ok(execution_mode::SEQUENCE_SECONDARY)
