@@ -436,6 +436,65 @@ fn group_jog_moves_a_joint_while_its_bit_is_set() {
     assert_eq!((done.state, done.code), (state::DONE, 0), "{done:?}");
 }
 
+/// A PLC program jogs with GroupJog steps written by the table's field names: the first
+/// step enables the jog with J1's plus key (ACTIVE), the next releases the key under the
+/// same CmdID, the last disables it (DONE); J1 moved positive, the others stood.
+#[test]
+fn a_program_jogs_with_group_jog_steps_that_update_one_command() {
+    let c = Controller::start("progjog");
+    let program = plc_client::Program::parse(
+        r#"
+        [[step]]
+        call = "GroupReset"
+        [[step]]
+        call = "EnableRobot"
+        [[step]]
+        call = "ReadActualPosition"
+        [[step]]
+        call = "GroupJog"
+        enable = true
+        mode = 2
+        override = 20.0
+        x_j1_pos = true
+        [[step]]
+        call = "GroupJog"
+        delay_ms = 300
+        enable = true
+        mode = 2
+        override = 20.0
+        [[step]]
+        call = "GroupJog"
+        delay_ms = 300
+        enable = false
+        [[step]]
+        call = "ReadActualPosition"
+        "#,
+        "jog.toml",
+    )
+    .expect("the program");
+    let report = plc_client::run_program(
+        &c.addr,
+        &program,
+        &plc_client::ClientOptions::default(),
+        &mut |_| {},
+    )
+    .expect("the run");
+    let s = &report.steps;
+    assert!(report.success(), "{s:#?}");
+    assert_eq!(
+        [3, 4, 5].map(|i| s[i].state.as_str()),
+        ["ACTIVE", "ACTIVE", "DONE"]
+    );
+    let (before, after) = (
+        s[2].reached.expect("position before"),
+        s[6].reached.expect("position after"),
+    );
+    assert!(after[0] > before[0] + 1.0, "J1: {before:?} -> {after:?}");
+    for i in 1..6 {
+        assert!((after[i] - before[i]).abs() < 1e-3, "only J1 moved");
+    }
+}
+
 /// A config edit that keeps the user data in `dir`.
 fn with_data_dir(dir: &std::path::Path) -> impl FnOnce(String) -> String {
     let line = format!("data_dir = \"{}\"", dir.display());

@@ -2,9 +2,10 @@
 //!
 //! Steps are submitted in order; each waits as its `wait` says, and at the end the runner
 //! waits for every outstanding command. A step passes when its final state and code match
-//! `expect`/`expect_code`; Enable-type EnableRobot passes (as DONE) once it reports ACTIVE
-//! with the requested Enabled bit, and a later EnableRobot step updates that command under
-//! its CmdID instead of sending a new one. Once any step has failed, no further step is
+//! `expect`/`expect_code`; an Enable-type command (EnableRobot, GroupJog, ...) passes (as
+//! DONE) once it reports ACTIVE (EnableRobot: with the requested Enabled bit), and a later
+//! step of the same command type updates that command under its CmdID instead of sending a
+//! new one. Once any step has failed, no further step is
 //! submitted (the rest are SKIPPED). A move's reached joints come from the first
 //! ReadActualPosition step submitted after the move was DONE and before the next move (of
 //! any kind, jogs included); a deviation above the position tolerance fails the move.
@@ -98,7 +99,7 @@ pub(crate) fn execute<T: Transport>(
         position_tolerance_deg,
         progress,
         tracked: vec![Tracked::default(); program.steps.len()],
-        live_enable: None,
+        live_enables: Vec::new(),
         last_move: None,
         stopped: false,
         messages: Vec::new(),
@@ -115,8 +116,8 @@ struct Executor<'a, T: Transport> {
     position_tolerance_deg: f64,
     progress: &'a mut dyn FnMut(&ProgressEvent),
     tracked: Vec<Tracked>,
-    /// The EnableRobot command later EnableRobot steps update.
-    live_enable: Option<CommandHandle>,
+    /// The Enable-type commands later steps of the same command type update.
+    live_enables: Vec<CommandHandle>,
     last_move: Option<usize>,
     stopped: bool,
     messages: Vec<RobotMessage>,
@@ -178,16 +179,22 @@ impl<T: Transport> Executor<'_, T> {
         });
         let task = self.runner.task_mut();
         let now = task.now();
-        let live_enable = self.live_enable.filter(|&h| {
-            task.status(h)
-                .is_some_and(|s| !s.is_final() && !s.abandoned)
-        });
-        let result = match (&step.request, live_enable) {
-            (Request::EnableRobot { .. }, Some(h)) => {
+        let live_enable = self
+            .live_enables
+            .iter()
+            .copied()
+            .filter(|_| step.request.is_enable_type())
+            .find(|&h| {
+                task.status(h).is_some_and(|s| {
+                    !s.is_final() && !s.abandoned && s.command_type == step.request.command_type()
+                })
+            });
+        let result = match live_enable {
+            Some(h) => {
                 let before = task.status(h).map_or(0, |s| s.responses);
                 task.update(h, &step.request).map(|()| (h, before))
             }
-            _ => task.submit(&step.request).map(|h| (h, 0)),
+            None => task.submit(&step.request).map(|h| (h, 0)),
         };
         let (handle, responses_before) = match result {
             Ok(r) => r,
@@ -197,12 +204,14 @@ impl<T: Transport> Executor<'_, T> {
                 return;
             }
         };
+        if step.request.is_enable_type() && live_enable.is_none() {
+            self.live_enables.push(handle);
+        }
         let t = &mut self.tracked[i];
         t.handle = Some(handle);
         t.submitted_at = now;
         t.responses_before = responses_before;
         match step.request {
-            Request::EnableRobot { .. } => self.live_enable = Some(handle),
             Request::MoveAxesAbsolute(_) => self.last_move = Some(i),
             Request::ReadActualPosition { .. } => t.position_for = position_for,
             // A position read after another move no longer tells where this one ended.
@@ -395,13 +404,20 @@ fn move_progress(step: &Step, status: &CommandStatus) -> Option<f64> {
     MoveProgress::decode(&status.response).progress_percent
 }
 
-/// An EnableRobot that reports ACTIVE with the Enabled bit it asked for.
+/// Whether an Enable-type command's step is done while the command stays ACTIVE: an
+/// EnableRobot once it reports the Enabled bit it asked for, any other once it reports ACTIVE
+/// to the parameters last sent.
 fn accepted(request: &Request, status: &CommandStatus) -> bool {
     match request {
         Request::EnableRobot { enable } => {
             status.state == state::ACTIVE && robot_enabled(&status.response) == *enable
         }
-        _ => false,
+        // ACTIVE with the parameters last sent (the robot echoes their ParSeq).
+        r => {
+            r.is_enable_type()
+                && status.state == state::ACTIVE
+                && status.par_seq == status.par_seq_sent
+        }
     }
 }
 

@@ -278,14 +278,6 @@ fn parse_table_step(
         .into_iter()
         .partition(|(key, _)| COMMON_KEYS.contains(&key.as_str()));
     let err = |message: String| (Some(call.clone()), message);
-    if table_step::is_enable_type(request_table) {
-        // Such a command stays ACTIVE until an update under its CmdID switches it off, which
-        // only the typed EnableRobot step sends: as a plain step it would wait for its timeout.
-        return Err(err(format!(
-            "{call} is an Enable-type command (it stays ACTIVE and takes updates under its \
-             CmdID); programs run it only as the typed EnableRobot step"
-        )));
-    }
     let def = deserialize_step(&common).map_err(err)?;
     let request = table_step::request(request_table, &parameters).map_err(err)?;
     Ok(step(call, request, &def))
@@ -519,11 +511,6 @@ mod tests {
         );
         let e = step_error("[[step]]\ncall = \"WaitTime\"\ntime = 5\nwait = \"soon\"\n");
         assert!(e.contains("step 1 (WaitTime): key `wait`"), "{e}");
-        let e = step_error("[[step]]\ncall = \"GroupJog\"\nenable = true\n");
-        assert!(
-            e.contains("step 1 (GroupJog): GroupJog is an Enable-type command"),
-            "{e}"
-        );
     }
 
     #[test]

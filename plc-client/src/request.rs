@@ -137,12 +137,15 @@ impl Request {
     /// Whether the command is of Enable type: it stays ACTIVE with parameters that can be
     /// updated under the same CmdID, instead of running to DONE.
     pub fn is_enable_type(&self) -> bool {
-        matches!(
-            self,
+        match self {
             Self::ExchangeConfiguration { .. }
-                | Self::ReadMessages { .. }
-                | Self::EnableRobot { .. }
-        )
+            | Self::ReadMessages { .. }
+            | Self::EnableRobot { .. } => true,
+            Self::Raw { .. } => {
+                crate::table_step::find(self.name()).is_some_and(crate::table_step::is_enable_type)
+            }
+            _ => false,
+        }
     }
 
     /// The specification's function name of the command type ("Raw" commands included).

@@ -384,6 +384,7 @@ mod tests {
         );
         assert_eq!(mode("GroupJog", ""), Ok(execution_mode::SEQUENCE_SECONDARY));
         assert!(is_enable_type(find("GroupJog").unwrap()));
+        assert!(request_of("GroupJog", "enable = true").unwrap().is_enable_type());
         assert!(!is_enable_type(find("MoveLinearAbsolute").unwrap()));
         assert_eq!(
             mode("MoveDirectAbsolute", "execution_mode = 7"),
