@@ -5,10 +5,10 @@
 //! `expect`/`expect_code`; an Enable-type command (EnableRobot, GroupJog, ...) passes (as
 //! DONE) once it reports ACTIVE (EnableRobot: with the requested Enabled bit), and a later
 //! step of the same command type updates that command under its CmdID instead of sending a
-//! new one. Once any step has failed, no further step is
-//! submitted (the rest are SKIPPED). A move's reached joints come from the first
-//! ReadActualPosition step submitted after the move was DONE and before the next move (of
-//! any kind, jogs included); a deviation above the position tolerance fails the move.
+//! new one. Once any step has failed, no further step is submitted (the rest are SKIPPED).
+//! A move's reached joints come from the first ReadActualPosition step submitted after the
+//! move was DONE and before the next move (of any kind, jogs included); a deviation above
+//! the position tolerance fails the move.
 
 use std::time::Duration;
 

@@ -37,7 +37,7 @@ const HEADER_FIELDS: [&str; 6] = [
 ];
 
 /// Keys of a table step besides its fields and the common keys.
-pub const HEADER_KEYS: [&str; 2] = ["aborting", "execution_mode"];
+const HEADER_KEYS: [&str; 2] = ["aborting", "execution_mode"];
 
 /// The request table of the command named `function`, if the specification has one.
 pub fn find(function: &str) -> Option<&'static RequestTable> {
@@ -51,7 +51,7 @@ pub fn is_enable_type(table: &RequestTable) -> bool {
 }
 
 /// The keys `table` takes, header keys first.
-pub fn keys(table: &RequestTable) -> Vec<&'static str> {
+pub fn parameter_keys(table: &RequestTable) -> Vec<&'static str> {
     let fields = table.fields.iter().map(|(name, _)| *name);
     let groups = table.groups.iter().map(|(name, _)| *name);
     HEADER_KEYS
@@ -115,7 +115,7 @@ pub fn request(table: &RequestTable, keys: &toml::Table) -> Result<Request, Stri
                 return Err(format!(
                     "unknown key `{key}`; {} takes: {}",
                     table.function,
-                    self::keys(table).join(", ")
+                    parameter_keys(table).join(", ")
                 ));
             }
         };
@@ -384,7 +384,11 @@ mod tests {
         );
         assert_eq!(mode("GroupJog", ""), Ok(execution_mode::SEQUENCE_SECONDARY));
         assert!(is_enable_type(find("GroupJog").unwrap()));
-        assert!(request_of("GroupJog", "enable = true").unwrap().is_enable_type());
+        assert!(
+            request_of("GroupJog", "enable = true")
+                .unwrap()
+                .is_enable_type()
+        );
         assert!(!is_enable_type(find("MoveLinearAbsolute").unwrap()));
         assert_eq!(
             mode("MoveDirectAbsolute", "execution_mode = 7"),
