@@ -58,7 +58,9 @@ enum Command {
     },
     /// Plays the PLC: runs an SRCI program against a running controller.
     Plc {
-        /// The program (TOML).
+        /// The program (TOML): `[[step]]`s of SRCI calls, any request of the specification
+        /// by its table's field names (README.md, "Driving it"; examples in
+        /// plc-client/programs/).
         program: PathBuf,
         /// Address of the controller's TCP gateway transport.
         #[arg(long, default_value = "127.0.0.1:5000")]
