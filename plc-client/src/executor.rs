@@ -406,7 +406,8 @@ fn move_progress(step: &Step, status: &CommandStatus) -> Option<f64> {
 
 /// Whether an Enable-type command's step is done while the command stays ACTIVE: an
 /// EnableRobot once it reports the Enabled bit it asked for, any other once it reports ACTIVE
-/// to the parameters last sent.
+/// to the parameters last sent, except ReturnToPrimary, which is ACTIVE while it moves back
+/// and DONE there.
 fn accepted(request: &Request, status: &CommandStatus) -> bool {
     match request {
         Request::EnableRobot { enable } => {
@@ -415,6 +416,7 @@ fn accepted(request: &Request, status: &CommandStatus) -> bool {
         // ACTIVE with the parameters last sent (the robot echoes their ParSeq).
         r => {
             r.is_enable_type()
+                && r.command_type() != tables::return_to_primary::TYPE
                 && status.state == state::ACTIVE
                 && status.par_seq == status.par_seq_sent
         }

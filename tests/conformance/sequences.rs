@@ -118,6 +118,89 @@ fn an_excursion_on_the_secondary_sequence_and_back_to_the_primary_path() {
     assert!(max_deviation(actual_joints(&mut plc), target) < 0.01);
 }
 
+/// A PLC program interrupts a joint move, jogs J2 away without SetSequence(2), and may
+/// continue only after ReturnToPrimary brought the arm back: the held move then ends at its
+/// target. (A jog used not to count as leaving the primary path: ReturnToPrimary answered
+/// DONE where it stood and GroupContinue went on from the jogged position.)
+#[test]
+fn a_jog_away_from_a_held_move_needs_the_way_back_before_it_continues() {
+    let c = crate::common::Controller::start("jogaway");
+    let program = plc_client::Program::parse(
+        r#"
+        [[step]]
+        call = "GroupReset"
+        [[step]]
+        call = "EnableRobot"
+        [[step]]
+        call = "MoveAxesAbsolute"
+        joints = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0]
+        [[step]]
+        call = "MoveAxesAbsolute"
+        joints = [40.0, 90.0, 90.0, 90.0, -90.0, 0.0]
+        velocity_rate = 20.0
+        wait = "active"
+        [[step]]
+        call = "GroupInterrupt"
+        delay_ms = 300
+        [[step]]
+        call = "ReadActualPosition"
+        [[step]]
+        call = "GroupJog"
+        enable = true
+        mode = 2
+        override = 20.0
+        y_j2_pos = true
+        [[step]]
+        call = "GroupJog"
+        delay_ms = 300
+        enable = false
+        [[step]]
+        call = "ReadActualPosition"
+        delay_ms = 500
+        [[step]]
+        call = "GroupContinue"
+        expect = "ERROR"
+        expect_code = 0x8C02
+        [[step]]
+        call = "ReturnToPrimary"
+        enable = true
+        [[step]]
+        call = "ReadActualPosition"
+        [[step]]
+        call = "GroupContinue"
+        [[step]]
+        call = "ReadActualPosition"
+        delay_ms = 3000
+        "#,
+        "jog-away.toml",
+    )
+    .expect("the program");
+    let report = plc_client::run_program(
+        &c.addr,
+        &program,
+        &plc_client::ClientOptions::default(),
+        &mut |_| {},
+    )
+    .expect("the run");
+    let s = &report.steps;
+    assert!(report.success(), "{s:#?}");
+    assert_eq!(s[9].code, code::NOT_IN_PRIMARY_POSITION);
+    let left_at = s[5].reached.expect("where the move was held");
+    let jogged = s[8].reached.expect("where the jog ended");
+    assert!(jogged[1] > left_at[1] + 1.0, "{left_at:?} -> {jogged:?}");
+    let back = s[11].reached.expect("after ReturnToPrimary");
+    assert!(
+        max_deviation(back, left_at) < 0.01,
+        "{left_at:?} vs {back:?}"
+    );
+    assert_eq!(s[3].state, "DONE", "the held move ended");
+    let end = s[13].reached.expect("where the move ended");
+    assert!(
+        max_deviation(end, [40.0, 90.0, 90.0, 90.0, -90.0, 0.0]) < 0.01,
+        "{end:?}"
+    );
+}
+
 #[test]
 fn step_mode_holds_the_primary_sequence_after_every_move() {
     let (_c, mut plc) = initialized("step");

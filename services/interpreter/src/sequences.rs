@@ -3,7 +3,8 @@
 //! The primary sequence carries the program's moves (ExecutionMode 0/1). While it is held
 //! (GroupInterrupt, or SetSequence to the secondary sequence from rest), SetSequence(2)
 //! activates the secondary sequence: moves with ExecutionMode 7/8 and jogging take the arm
-//! away, ReturnToPrimary brings it back to where the primary sequence was left, and after
+//! away (a jog also without SetSequence(2) while the primary sequence holds moves),
+//! ReturnToPrimary brings it back to where the primary sequence was left, and after
 //! SetSequence(1) GroupContinue resumes the primary sequence, but only from that position
 //! (InPrimaryPos, else 0x8C02), so that the held moves continue on their own path.
 
@@ -76,8 +77,14 @@ impl Sequences {
             return Err(SwitchRefused::PrimaryRunning);
         }
         self.secondary_active = true;
-        self.primary_position.get_or_insert(here);
+        self.left_primary(here);
         Ok(())
+    }
+
+    /// The arm leaves the primary path at `here` while primary moves are held (SetSequence(2),
+    /// or a jog): the first excursion's position is the one to return to.
+    pub fn left_primary(&mut self, here: PrimaryPosition) {
+        self.primary_position.get_or_insert(here);
     }
 
     /// SetSequence(1). `secondary_busy`: a secondary move or jog still runs or waits.
@@ -111,6 +118,20 @@ mod tests {
             tool_no: 2,
             frame_no: 3,
         }
+    }
+
+    /// A jog while primary moves are held leaves the primary path without SetSequence(2);
+    /// further jogs keep the first position.
+    #[test]
+    fn a_jog_away_keeps_where_the_primary_sequence_was_left() {
+        let mut s = Sequences::default();
+        s.left_primary(at(0.5));
+        s.left_primary(at(0.7));
+        assert!(!s.secondary_active());
+        assert_eq!(s.primary_position(), Some(at(0.5)));
+        assert!(!s.in_primary_position(&at(0.7).joints));
+        s.primary_resumed();
+        assert!(s.in_primary_position(&at(0.7).joints));
     }
 
     #[test]

@@ -239,6 +239,14 @@ impl Server {
                 Ok(j) => job = j,
                 Err(c) => return self.respond(cmd_id, h, state::ERROR, c, now, |_| {}),
             }
+            // Jogging away from held primary moves is an excursion: they continue only from
+            // where they were left (InPrimaryPos, ReturnToPrimary), not from wherever the jog
+            // ended.
+            if self.primary_held()
+                && let Some(here) = self.primary_position_here()
+            {
+                self.sequences.left_primary(here);
+            }
         }
         self.live[i].kind = LiveKind::Jog {
             job,

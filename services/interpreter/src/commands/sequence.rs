@@ -29,6 +29,23 @@ impl Server {
         )
     }
 
+    /// Where the arm stands now, as a position to return the primary sequence to; `None`
+    /// before the planner's first status.
+    pub(crate) fn primary_position_here(&self) -> Option<PrimaryPosition> {
+        self.status.map(|s| PrimaryPosition {
+            joints: s.joints_rad,
+            flange: s.flange_pose,
+            tool_no: self.user_data.current_tool(),
+            frame_no: self.user_data.current_frame(),
+        })
+    }
+
+    /// Whether the primary sequence is held with moves to continue.
+    pub(crate) fn primary_held(&self) -> bool {
+        self.status
+            .is_some_and(|s| s.sequence_paused && (s.active_job != 0 || s.queued_jobs != 0))
+    }
+
     /// Whether a primary move runs or waits without the sequence being held.
     fn primary_running(&self) -> bool {
         self.status
@@ -70,13 +87,7 @@ impl Server {
             1 => self.sequences.activate_primary(self.secondary_busy()),
             2 => {
                 let was_held = self.status.is_some_and(|s| s.sequence_paused);
-                let here = self.status.map(|s| PrimaryPosition {
-                    joints: s.joints_rad,
-                    flange: s.flange_pose,
-                    tool_no: self.user_data.current_tool(),
-                    frame_no: self.user_data.current_frame(),
-                });
-                let switched = match here {
+                let switched = match self.primary_position_here() {
                     Some(here) => self
                         .sequences
                         .activate_secondary(self.primary_running(), here),
