@@ -442,7 +442,8 @@ fn group_jog_moves_a_joint_while_its_bit_is_set() {
 #[test]
 fn a_program_jogs_with_group_jog_steps_that_update_one_command() {
     let c = Controller::start("progjog");
-    let program = plc_client::Program::parse(
+    let s = &common::run_passing_program(
+        &c,
         r#"
         [[step]]
         call = "GroupReset"
@@ -469,18 +470,7 @@ fn a_program_jogs_with_group_jog_steps_that_update_one_command() {
         [[step]]
         call = "ReadActualPosition"
         "#,
-        "jog.toml",
-    )
-    .expect("the program");
-    let report = plc_client::run_program(
-        &c.addr,
-        &program,
-        &plc_client::ClientOptions::default(),
-        &mut |_| {},
-    )
-    .expect("the run");
-    let s = &report.steps;
-    assert!(report.success(), "{s:#?}");
+    );
     assert_eq!(
         [3, 4, 5].map(|i| s[i].state.as_str()),
         ["ACTIVE", "ACTIVE", "DONE"]

@@ -485,3 +485,18 @@ pub fn unimplemented_request() -> Request {
         payload: vec![0; unimplemented::request::LEN - 4],
     }
 }
+
+/// Runs the PLC program `text` against `c` with the client's default options; its steps,
+/// after asserting that every step passed.
+pub fn run_passing_program(c: &Controller, text: &str) -> Vec<plc_client::StepReport> {
+    let program = plc_client::Program::parse(text, "test program").expect("the program");
+    let report = plc_client::run_program(
+        &c.addr,
+        &program,
+        &plc_client::ClientOptions::default(),
+        &mut |_| {},
+    )
+    .expect("the run");
+    assert!(report.success(), "{:#?}", report.steps);
+    report.steps
+}

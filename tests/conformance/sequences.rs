@@ -125,7 +125,8 @@ fn an_excursion_on_the_secondary_sequence_and_back_to_the_primary_path() {
 #[test]
 fn a_jog_away_from_a_held_move_needs_the_way_back_before_it_continues() {
     let c = crate::common::Controller::start("jogaway");
-    let program = plc_client::Program::parse(
+    let s = &crate::common::run_passing_program(
+        &c,
         r#"
         [[step]]
         call = "GroupReset"
@@ -172,18 +173,7 @@ fn a_jog_away_from_a_held_move_needs_the_way_back_before_it_continues() {
         call = "ReadActualPosition"
         delay_ms = 3000
         "#,
-        "jog-away.toml",
-    )
-    .expect("the program");
-    let report = plc_client::run_program(
-        &c.addr,
-        &program,
-        &plc_client::ClientOptions::default(),
-        &mut |_| {},
-    )
-    .expect("the run");
-    let s = &report.steps;
-    assert!(report.success(), "{s:#?}");
+    );
     assert_eq!(s[9].code, code::NOT_IN_PRIMARY_POSITION);
     let left_at = s[5].reached.expect("where the move was held");
     let jogged = s[8].reached.expect("where the jog ended");
