@@ -223,6 +223,17 @@ mod tests {
     use shared_types::srci::message::code;
     use shared_types::srci::payload::PayloadWriter;
 
+    /// A circle the planner refuses for its points (on one line, off its plane) ends with
+    /// 0x8D24, whose message used to say only "not a finite number".
+    #[test]
+    fn the_message_of_an_invalid_position_names_the_arc_too() {
+        let text = crate::commands::describe(code::INVALID_POSITION);
+        assert!(
+            text.contains("not a finite number") && text.contains("no arc"),
+            "{text}"
+        );
+    }
+
     #[test]
     fn arc_parameters_are_checked_with_the_codes_of_the_specification() {
         assert_eq!(

@@ -186,8 +186,9 @@ pub fn describe(code: u16) -> &'static str {
         code::ROBOT_DISABLED => "robot not enabled: EnableRobot first",
         code::CONTINUE_NOT_ENABLED => "GroupContinue not possible: robot not enabled",
         code::DISABLED_DUE_TO_ERROR => "robot in error: GroupReset first",
-        code::SW_LIMIT_LOWER => "target below the lower joint limit",
-        code::SW_LIMIT_UPPER => "target above the upper joint limit",
+        // A line or an arc is checked all along: a point of the path may be the one.
+        code::SW_LIMIT_LOWER => "target or path below the lower joint limit",
+        code::SW_LIMIT_UPPER => "target or path above the upper joint limit",
         code::INVALID_ACCELERATION_RATE => "AccelerationRate out of range 0..100 %",
         code::INVALID_VELOCITY_RATE => "VelocityRate out of range 0..100 %",
         code::INVALID_JERK_RATE => "JerkRate out of range 0..100 %",
@@ -207,7 +208,10 @@ pub fn describe(code: u16) -> &'static str {
             "Angle must be a number and is only used with CircMode 2 (CENTER_WITH_ANGLE)"
         }
         code::INVALID_JOINT_POSITION => "joint position is not a finite number",
-        code::INVALID_POSITION => "Cartesian position is not a finite number",
+        code::INVALID_POSITION => {
+            "Cartesian position not a finite number, or no arc through the points (on one \
+             line, off the circle's plane, radius or angle out of range)"
+        }
         code::TARGET_UNREACHABLE => "target unreachable in the requested configuration",
         code::INVALID_TURN_MODE => "TurnMode is not a defined value",
         code::INVALID_CONFIG_MODE_SHOULDER
