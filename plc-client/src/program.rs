@@ -241,6 +241,12 @@ fn parse_step(table: &toml::Table) -> Result<Step, StepError> {
         if let Some(request_table) = table_step::find(&call) {
             return parse_table_step(table, call, request_table);
         }
+        if let Some(spelled) = table_step::find_ignoring_case(&call) {
+            return Err((
+                None,
+                format!("unknown call `{call}`; the specification spells it `{spelled}`"),
+            ));
+        }
         let known: Vec<&str> = CALLS.iter().map(|(n, _)| *n).collect();
         return Err((
             None,
@@ -504,6 +510,11 @@ mod tests {
         assert_eq!(s.request.name(), "MoveLinearAbsolute");
         assert_eq!(s.request.execution_mode(), 0);
 
+        let e = step_error("[[step]]\ncall = \"WriteRobotSwLimits\"\n");
+        assert!(
+            e.contains("unknown call `WriteRobotSwLimits`; the specification spells it `WriteRobotSWLimits`"),
+            "{e}"
+        );
         let e = step_error("[[step]]\ncall = \"MoveLinearAbsolute\"\ntool_no = 300\n");
         assert!(
             e.contains("step 1 (MoveLinearAbsolute): key `tool_no`: 300 is outside 0..=255"),

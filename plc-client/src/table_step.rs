@@ -44,6 +44,15 @@ pub fn find(function: &str) -> Option<&'static RequestTable> {
     tables::REQUESTS.iter().find(|t| t.function == function)
 }
 
+/// The function name of the request table named `function` up to letter case, as the
+/// specification spells it (`WriteRobotSWLimits` for `WriteRobotSwLimits`).
+pub fn find_ignoring_case(function: &str) -> Option<&'static str> {
+    tables::REQUESTS
+        .iter()
+        .find(|t| t.function.eq_ignore_ascii_case(function))
+        .map(|t| t.function)
+}
+
 /// Whether the command is of Enable type (GroupJog, ReturnToPrimary, ...): its request has
 /// an Enable bit.
 pub fn is_enable_type(table: &RequestTable) -> bool {
