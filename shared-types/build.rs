@@ -155,7 +155,6 @@ fn main() {
         by_function.entry(t.function.as_str()).or_default().push(t);
     }
     let mut lengths = Vec::new();
-    let mut requests = Vec::new();
     for (function, tables) in &by_function {
         let type_id = spec.command_types[*function];
         writeln!(out, "/// {function} (type {type_id}).").unwrap();
@@ -271,8 +270,9 @@ fn main() {
                 )
                 .unwrap();
             }
-            if module == "request" {
-                // By name at run time, for clients that build requests from text.
+            {
+                // By name at run time, for clients that build requests from text and show
+                // responses by field.
                 writeln!(
                     out,
                     "        /// Every field by its snake_case name, in payload order."
@@ -307,7 +307,6 @@ fn main() {
                     writeln!(out, "            ({:?}, {name}),", key.to_lowercase()).unwrap();
                 }
                 writeln!(out, "        ];").unwrap();
-                requests.push(snake(function));
             }
             writeln!(out, "    }}").unwrap();
         }
@@ -337,29 +336,36 @@ fn main() {
     }
     writeln!(out, "];").unwrap();
 
-    writeln!(
-        out,
-        "/// The request table of every command type that has one, by function name."
-    )
-    .unwrap();
-    writeln!(
-        out,
-        "pub const REQUESTS: [crate::srci::payload::RequestTable; {}] = [",
-        requests.len()
-    )
-    .unwrap();
-    for (function, tables) in &by_function {
-        let module = snake(function);
-        if !tables.iter().any(|t| t.direction == "send") {
-            continue;
-        }
+    for (name, direction, module) in [
+        ("REQUESTS", "send", "request"),
+        ("RESPONSES", "recv", "response"),
+    ] {
+        let with: Vec<&str> = by_function
+            .iter()
+            .filter(|(_, tables)| tables.iter().any(|t| t.direction == direction))
+            .map(|(function, _)| *function)
+            .collect();
         writeln!(
             out,
-            "    crate::srci::payload::RequestTable {{ function: {function:?}, command_type: {module}::TYPE, len: {module}::request::LEN, fields: &{module}::request::FIELDS, groups: &{module}::request::GROUPS }},"
+            "/// The {module} table of every command type that has one, by function name."
         )
         .unwrap();
+        writeln!(
+            out,
+            "pub const {name}: [crate::srci::payload::FieldTable; {}] = [",
+            with.len()
+        )
+        .unwrap();
+        for function in with {
+            let m = snake(function);
+            writeln!(
+                out,
+                "    crate::srci::payload::FieldTable {{ function: {function:?}, command_type: {m}::TYPE, len: {m}::{module}::LEN, fields: &{m}::{module}::FIELDS, groups: &{m}::{module}::GROUPS }},"
+            )
+            .unwrap();
+        }
+        writeln!(out, "];").unwrap();
     }
-    writeln!(out, "];").unwrap();
 
     let dest = std::path::Path::new(&std::env::var("OUT_DIR").unwrap()).join("spec_tables.rs");
     std::fs::write(dest, out).expect("write spec_tables.rs");

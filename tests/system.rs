@@ -441,9 +441,8 @@ fn group_jog_moves_a_joint_while_its_bit_is_set() {
 /// same CmdID, the last disables it (DONE); J1 moved positive, the others stood.
 #[test]
 fn a_program_jogs_with_group_jog_steps_that_update_one_command() {
-    let c = Controller::start("progjog");
     let s = &common::run_passing_program(
-        &c,
+        "progjog",
         r#"
         [[step]]
         call = "GroupReset"
@@ -483,6 +482,44 @@ fn a_program_jogs_with_group_jog_steps_that_update_one_command() {
     for i in 1..6 {
         assert!((after[i] - before[i]).abs() < 1e-3, "only J1 moved");
     }
+}
+
+/// A tool written and read back by table steps: the report shows the read's response by
+/// field, the tool's six values as one list.
+#[test]
+fn a_program_writes_a_tool_and_reads_it_back_by_field_names() {
+    let s = &common::run_passing_program(
+        "progtool",
+        r#"
+        [[step]]
+        call = "GroupReset"
+        [[step]]
+        call = "WriteToolData"
+        tool_no = 4
+        tool_data = [10.0, 0.0, 120.0, 0.0, 0.0, 45.0]
+        [[step]]
+        call = "ReadToolData"
+        tool_no = 4
+        "#,
+    );
+    let field = |name: &str| {
+        s[2].response
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, v)| v.clone())
+    };
+    assert_eq!(
+        field("tool_no").as_deref(),
+        Some("4"),
+        "{:?}",
+        s[2].response
+    );
+    assert_eq!(
+        field("tool_data").as_deref(),
+        Some("[10, 0, 120, 0, 0, 45]"),
+        "{:?}",
+        s[2].response
+    );
 }
 
 /// A config edit that keeps the user data in `dir`.

@@ -22,7 +22,7 @@ use crate::engine::CommandStatus;
 use crate::program::{Expect, Program, Step, Wait};
 use crate::report::StepReport;
 use crate::request::Request;
-use crate::response::{ActualPosition, MoveProgress, RobotMessage, robot_enabled};
+use crate::response::{ActualPosition, MoveProgress, RobotMessage, fields_by_name, robot_enabled};
 use crate::transport::Transport;
 
 /// What a program run reports while it goes, for live display.
@@ -379,9 +379,37 @@ impl<T: Transport> Executor<'_, T> {
                     reached: t.reached,
                     passed: t.passed,
                     note: t.note.clone(),
+                    response: self.response_fields(step, t),
                 }
             })
             .collect()
+    }
+}
+
+impl<T: Transport> Executor<'_, T> {
+    /// The response of a table step that reads or writes (not a move) and succeeded, by
+    /// field.
+    fn response_fields(&self, step: &Step, t: &Tracked) -> Vec<(&'static str, String)> {
+        let succeeded = matches!(
+            t.outcome,
+            Some(
+                Outcome::Final {
+                    state: state::DONE,
+                    ..
+                } | Outcome::Accepted { .. }
+            )
+        );
+        if !matches!(step.request, Request::Raw { .. })
+            || step.request.moves_the_arm()
+            || !succeeded
+        {
+            return Vec::new();
+        }
+        t.handle
+            .and_then(|h| self.runner.task().status(h))
+            .map_or_else(Vec::new, |s| {
+                fields_by_name(step.request.command_type(), &s.response)
+            })
     }
 }
 

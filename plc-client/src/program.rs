@@ -277,7 +277,7 @@ fn parse_step(table: &toml::Table) -> Result<Step, StepError> {
 fn parse_table_step(
     table: &toml::Table,
     call: String,
-    request_table: &shared_types::srci::payload::RequestTable,
+    request_table: &shared_types::srci::payload::FieldTable,
 ) -> Result<Step, StepError> {
     let (common, parameters): (toml::Table, toml::Table) = table
         .clone()

@@ -28,6 +28,9 @@ pub struct StepReport {
     pub passed: bool,
     /// Why the step failed, or other remarks.
     pub note: String,
+    /// For a step of a call without a typed request that does not move the arm (a read or
+    /// a write by its table's fields): its response by field, name and value as text.
+    pub response: Vec<(&'static str, String)>,
 }
 
 impl StepReport {
@@ -176,6 +179,12 @@ impl Report {
                 m.msg_id, m.severity, m.code, m.text
             )?;
         }
+        for s in self.steps.iter().filter(|s| !s.response.is_empty()) {
+            writeln!(w, "step {} {}:", s.index, s.call)?;
+            for (name, value) in &s.response {
+                writeln!(w, "  {name} = {value}")?;
+            }
+        }
         let passed = self.steps.iter().filter(|s| s.passed).count();
         writeln!(
             w,
@@ -202,15 +211,21 @@ mod tests {
             reached: None,
             passed,
             note: String::new(),
+            response: Vec::new(),
         };
         let mut mv = step(2, "MoveAxesAbsolute", false);
         mv.target = Some([0.0, 90.0, 90.0, 90.0, -90.0, 0.0]);
         mv.reached = Some([0.0, 90.5, 90.0, 90.0, -90.0, 0.0]);
         mv.note = "expected ABORTED".to_owned();
+        let mut read = step(3, "ReadToolData", true);
+        read.response = vec![
+            ("tool_no", "2".to_owned()),
+            ("tool_data_id", "7".to_owned()),
+        ];
         let report = Report {
             program: "t".to_owned(),
             handshake: Duration::from_millis(50),
-            steps: vec![step(1, "GroupReset", true), mv],
+            steps: vec![step(1, "GroupReset", true), mv, read],
             round_trips: RoundTripSummary::default(),
             cycles: 10,
             overruns: 0,
@@ -228,6 +243,7 @@ mod tests {
         assert_eq!(col(lines[1]), col(lines[2]));
         assert_eq!(col(lines[2]), col(lines[3]));
         assert!(text.contains("FAILED expected ABORTED"));
-        assert!(text.contains("result: FAILURE (1/2 steps passed)"));
+        assert!(text.contains("step 3 ReadToolData:\n  tool_no = 2\n  tool_data_id = 7\n"));
+        assert!(text.contains("result: FAILURE (2/3 steps passed)"));
     }
 }

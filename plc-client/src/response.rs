@@ -4,7 +4,7 @@
 //! generated specification tables; missing tail bytes read as zero.
 
 use shared_types::srci::message::Percent;
-use shared_types::srci::payload::{Field, PayloadReader};
+use shared_types::srci::payload::{Field, Layout, PayloadReader, WireType};
 use shared_types::srci::{supported, tables};
 
 use crate::request::{
@@ -484,6 +484,73 @@ pub fn aborted_sequence(payload: &[u8]) -> i8 {
     PayloadReader::new(payload).i8(tables::group_stop::response::ABORTED_SEQUENCE)
 }
 
+/// Fields of every response header, which the report shows in its own columns.
+const RESPONSE_HEADER: [&str; 4] = [
+    "par_seq",
+    "state",
+    "alarm_message_severity",
+    "alarm_message_code",
+];
+
+/// The response `payload` of a `command_type` field by field, named as its table names them,
+/// each value as text: REAL and integers as numbers, the UINT percentages (`*_rate`,
+/// `override`) in percent or "default", bits as true/false, CHAR arrays as text, arrays and
+/// the six-value groups (`position`, ...) as lists. Empty for a command without a response
+/// table; the header (state, message code) is left out.
+pub fn fields_by_name(command_type: u16, payload: &[u8]) -> Vec<(&'static str, String)> {
+    let Some(table) = tables::RESPONSES
+        .iter()
+        .find(|t| t.command_type == command_type)
+    else {
+        return Vec::new();
+    };
+    let r = PayloadReader::new(payload);
+    let grouped = |f: &Field| table.groups.iter().any(|(_, g)| g.contains(f));
+    let groups = table.groups.iter().map(|(name, group)| {
+        let values: Vec<String> = group
+            .iter()
+            .map(|f| value_text(&r, payload, name, *f))
+            .collect();
+        (*name, format!("[{}]", values.join(", ")), group[0].offset)
+    });
+    let fields = table
+        .fields
+        .iter()
+        .filter(|(name, f)| !RESPONSE_HEADER.contains(name) && !grouped(f))
+        .map(|(name, f)| (*name, value_text(&r, payload, name, *f), f.offset));
+    let mut all: Vec<_> = groups.chain(fields).collect();
+    all.sort_by_key(|(_, _, offset)| *offset);
+    all.into_iter()
+        .map(|(name, text, _)| (name, text))
+        .collect()
+}
+
+/// One field's value as text (see [`fields_by_name`]).
+fn value_text(r: &PayloadReader, payload: &[u8], name: &str, f: Field) -> String {
+    let scalar = |f: Field, t: WireType| match t {
+        WireType::F32 => format!("{}", r.f32(f)),
+        WireType::U8 => r.u8(f).to_string(),
+        WireType::I8 => r.i8(f).to_string(),
+        WireType::U16 => r.u16(f).to_string(),
+        WireType::I16 => r.i16(f).to_string(),
+        WireType::U32 => r.u32(f).to_string(),
+        WireType::Char => char::from(r.u8(f)).to_string(),
+    };
+    match f.layout {
+        Layout::Scalar(WireType::U16) if name.ends_with("_rate") || name == "override" => {
+            percent(r, f).map_or_else(|| "default".to_owned(), |p| format!("{p} %"))
+        }
+        Layout::Scalar(t) => scalar(f, t),
+        Layout::Bit(_) => r.bit(f).to_string(),
+        Layout::HighNibble | Layout::LowNibble => r.u8(f).to_string(),
+        Layout::Array(WireType::Char, _) => format!("{:?}", chars(payload, f)),
+        Layout::Array(t, n) => {
+            let values: Vec<String> = (0..n).map(|i| scalar(f.element(i), t)).collect();
+            format!("[{}]", values.join(", "))
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -556,5 +623,57 @@ mod tests {
         let a = ActualPosition::decode(&p);
         assert_eq!(a.joints_deg[1], 90.0);
         assert_eq!(a.cartesian[2], 500.5);
+    }
+}
+
+#[cfg(test)]
+mod field_tests {
+    use super::*;
+    use shared_types::srci::payload::PayloadWriter;
+
+    /// A ReadToolData response reads as its fields, the tool's six values as one list, the
+    /// header left out; a ReadRobotDefaultDynamics response shows its rates in percent.
+    #[test]
+    fn a_response_reads_field_by_field_as_its_table_names_them() {
+        use tables::read_tool_data::response as rtd;
+        let mut b = vec![0u8; rtd::LEN];
+        let mut w = PayloadWriter::new(&mut b);
+        w.set_u8(rtd::STATE, 3);
+        for (f, v) in rtd::TOOL_DATA_X_RZ
+            .into_iter()
+            .zip([0.0, 0.0, 100.5, 0.0, 0.0, 90.0])
+        {
+            w.set_f32(f, v);
+        }
+        w.set_u8(rtd::TOOL_NO, 2);
+        w.set_bit(rtd::TOOL_DATA_EXTERNAL_TCP, true);
+        let fields = fields_by_name(tables::read_tool_data::TYPE, &b);
+        let get = |name: &str| {
+            fields
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, v)| v.as_str())
+        };
+        assert_eq!(get("tool_data"), Some("[0, 0, 100.5, 0, 0, 90]"));
+        assert_eq!(get("tool_data_z"), None, "inside the list");
+        assert_eq!(get("tool_no"), Some("2"));
+        assert_eq!(get("tool_data_external_tcp"), Some("true"));
+        assert_eq!(get("state"), None, "the header has its own columns");
+
+        use tables::read_robot_default_dynamics::response as rdd;
+        let mut b = vec![0u8; rdd::LEN];
+        let mut w = PayloadWriter::new(&mut b);
+        w.set_u16(rdd::VELOCITY_RATE, 5000);
+        w.set_u16(rdd::JERK_RATE, 0xFFFF);
+        let fields = fields_by_name(tables::read_robot_default_dynamics::TYPE, &b);
+        assert!(
+            fields.contains(&("velocity_rate", "50 %".to_owned())),
+            "{fields:?}"
+        );
+        assert!(
+            fields.contains(&("jerk_rate", "default".to_owned())),
+            "{fields:?}"
+        );
+        assert!(fields_by_name(0xFFFF, &b).is_empty(), "no table, no fields");
     }
 }

@@ -21,7 +21,7 @@
 //! move with AbortingMode ABORT, `execution_mode` sets the mode explicitly.
 
 use shared_types::srci::message::{CommandHeader, Percent, execution_mode};
-use shared_types::srci::payload::{Field, Layout, PayloadWriter, RequestTable, WireType};
+use shared_types::srci::payload::{Field, FieldTable, Layout, PayloadWriter, WireType};
 use shared_types::srci::tables;
 
 use crate::request::Request;
@@ -40,7 +40,7 @@ const HEADER_FIELDS: [&str; 6] = [
 const HEADER_KEYS: [&str; 2] = ["aborting", "execution_mode"];
 
 /// The request table of the command named `function`, if the specification has one.
-pub fn find(function: &str) -> Option<&'static RequestTable> {
+pub fn find(function: &str) -> Option<&'static FieldTable> {
     tables::REQUESTS.iter().find(|t| t.function == function)
 }
 
@@ -55,12 +55,12 @@ pub fn find_ignoring_case(function: &str) -> Option<&'static str> {
 
 /// Whether the command is of Enable type (GroupJog, ReturnToPrimary, ...): its request has
 /// an Enable bit.
-pub fn is_enable_type(table: &RequestTable) -> bool {
+pub fn is_enable_type(table: &FieldTable) -> bool {
     table.fields.iter().any(|(name, _)| *name == "enable")
 }
 
 /// The keys `table` takes, header keys first.
-pub fn parameter_keys(table: &RequestTable) -> Vec<&'static str> {
+pub fn parameter_keys(table: &FieldTable) -> Vec<&'static str> {
     let fields = table.fields.iter().map(|(name, _)| *name);
     let groups = table.groups.iter().map(|(name, _)| *name);
     HEADER_KEYS
@@ -76,7 +76,7 @@ enum Parameter {
     Group([Field; 6]),
 }
 
-fn parameter(table: &RequestTable, key: &str) -> Option<Parameter> {
+fn parameter(table: &FieldTable, key: &str) -> Option<Parameter> {
     if HEADER_FIELDS.contains(&key) {
         return None;
     }
@@ -91,7 +91,7 @@ fn parameter(table: &RequestTable, key: &str) -> Option<Parameter> {
 
 /// The request of `table` with the step's `keys` (the common keys already taken out);
 /// errors name the key.
-pub fn request(table: &RequestTable, keys: &toml::Table) -> Result<Request, String> {
+pub fn request(table: &FieldTable, keys: &toml::Table) -> Result<Request, String> {
     let mut bytes = vec![0u8; table.len.max(CommandHeader::LEN)];
     let mut w = PayloadWriter::new(&mut bytes);
     let mut written: Vec<(&str, Field)> = Vec::new();
@@ -161,7 +161,7 @@ fn is_percent(name: &str, field: Field) -> bool {
 
 /// The ExecutionMode of the step: a move (or a wait) runs on the primary sequence, aborting
 /// the others with `aborting = true`; jogging on the secondary; everything else in parallel.
-fn mode(table: &RequestTable, keys: &toml::Table) -> Result<u8, String> {
+fn mode(table: &FieldTable, keys: &toml::Table) -> Result<u8, String> {
     let sequence = table.function.starts_with("Move")
         || table.function == "WaitTime"
         || table.function == "ReturnToPrimary";

@@ -486,9 +486,10 @@ pub fn unimplemented_request() -> Request {
     }
 }
 
-/// Runs the PLC program `text` against `c` with the client's default options; its steps,
-/// after asserting that every step passed.
-pub fn run_passing_program(c: &Controller, text: &str) -> Vec<plc_client::StepReport> {
+/// Runs the PLC program `text` against a new controller (instance `tag`) with the client's
+/// default options; its steps, after asserting that every step passed.
+pub fn run_passing_program(tag: &str, text: &str) -> Vec<plc_client::StepReport> {
+    let c = Controller::start(tag);
     let program = plc_client::Program::parse(text, "test program").expect("the program");
     let report = plc_client::run_program(
         &c.addr,

@@ -124,9 +124,8 @@ fn an_excursion_on_the_secondary_sequence_and_back_to_the_primary_path() {
 /// DONE where it stood and GroupContinue went on from the jogged position.)
 #[test]
 fn a_jog_away_from_a_held_move_needs_the_way_back_before_it_continues() {
-    let c = crate::common::Controller::start("jogaway");
     let s = &crate::common::run_passing_program(
-        &c,
+        "jogaway",
         r#"
         [[step]]
         call = "GroupReset"

@@ -69,10 +69,11 @@ impl Field {
     }
 }
 
-/// The request table of one command type, for building requests by field name
-/// ([`tables::REQUESTS`](super::tables::REQUESTS)).
+/// The request or the response table of one command type, for building requests and
+/// reading responses by field name ([`tables::REQUESTS`](super::tables::REQUESTS),
+/// [`tables::RESPONSES`](super::tables::RESPONSES)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct RequestTable {
+pub struct FieldTable {
     /// The specification's function name, e.g. `MoveLinearAbsolute`.
     pub function: &'static str,
     pub command_type: u16,
