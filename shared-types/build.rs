@@ -89,30 +89,45 @@ fn skip(name: &str) -> bool {
     n.is_empty() || n == "-" || n.starts_with("Reserve") || n.starts_with("Res") && n.len() <= 4
 }
 
-/// Defects of the specification's request tables, corrected before the fields are made so
-/// that the server and the clients read them alike: (function, offset, type, names) replace
-/// the entry at that offset.
+/// Defects of the specification's tables, corrected before the fields are made so that the
+/// server and the clients read them alike: (function, direction, offset, type, names)
+/// replace the entry at that offset.
 ///
-/// Table 6-357 (MoveCircularRelative) lists ConfigMode[1] and ReferenceType as bits of byte
-/// 111 and leaves byte 112 reserved: ConfigMode[1] is a full byte as in
-/// MoveCircularAbsolute's table (the Shoulder and Wrist modes do not fit a bit), so
-/// ReferenceType takes the only free byte, the one before TurnMode.
-const CORRECTIONS: [(&str, usize, &str, &[&str]); 2] = [
-    ("MoveCircularRelative", 111, "BYTE", &["ConfigMode[1]"]),
-    ("MoveCircularRelative", 112, "USINT", &["ReferenceType"]),
+/// - Table 6-357 (MoveCircularRelative) lists ConfigMode[1] and ReferenceType as bits of
+///   byte 111 and leaves byte 112 reserved: ConfigMode[1] is a full byte as in
+///   MoveCircularAbsolute's table (the Shoulder and Wrist modes do not fit a bit), so
+///   ReferenceType takes the only free byte, the one before TurnMode.
+/// - Table 6-203 (ReadRobotSWLimits) names byte 62 "E1LowerLimit" a second time; by the
+///   write table 6-209 and the order of the others it is E1's upper limit.
+const CORRECTIONS: [(&str, &str, usize, &str, &[&str]); 3] = [
+    (
+        "MoveCircularRelative",
+        "send",
+        111,
+        "BYTE",
+        &["ConfigMode[1]"],
+    ),
+    (
+        "MoveCircularRelative",
+        "send",
+        112,
+        "USINT",
+        &["ReferenceType"],
+    ),
+    ("ReadRobotSWLimits", "recv", 62, "REAL", &["E1UpperLimit"]),
 ];
 
 /// Applies [`CORRECTIONS`]; a correction that finds no entry to replace stops the build (the
 /// data file changed under it).
 fn correct(spec: &mut Spec) {
-    for (function, offset, ty, names) in CORRECTIONS {
+    for (function, direction, offset, ty, names) in CORRECTIONS {
         let entry = spec
             .tables
             .iter_mut()
-            .filter(|t| t.function == function && t.direction == "send")
+            .filter(|t| t.function == function && t.direction == direction)
             .flat_map(|t| t.entries.iter_mut())
             .find(|(o, _, _)| *o == offset)
-            .unwrap_or_else(|| panic!("no entry at {offset} of {function}'s request table"));
+            .unwrap_or_else(|| panic!("no entry at {offset} of {function}'s {direction} table"));
         *entry = (
             offset,
             ty.to_owned(),

@@ -676,4 +676,19 @@ mod field_tests {
         );
         assert!(fields_by_name(0xFFFF, &b).is_empty(), "no table, no fields");
     }
+
+    /// Table 6-203 names byte 62 of ReadRobotSWLimits "E1LowerLimit" a second time; the
+    /// generated fields call it E1's upper limit (the correction in shared-types/build.rs).
+    #[test]
+    fn the_sw_limits_response_names_e1s_upper_limit() {
+        use tables::read_robot_sw_limits::response as rsl;
+        assert_eq!(rsl::E1_UPPER_LIMIT.offset, 62);
+        let b = vec![0u8; rsl::LEN];
+        let names: Vec<&str> = fields_by_name(tables::read_robot_sw_limits::TYPE, &b)
+            .into_iter()
+            .map(|(n, _)| n)
+            .collect();
+        assert!(names.contains(&"e1_upper_limit"), "{names:?}");
+        assert!(!names.contains(&"e1_lower_limit_2"), "{names:?}");
+    }
 }

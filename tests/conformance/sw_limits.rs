@@ -26,7 +26,7 @@ fn sw_limits_narrow_moves_and_jogs_and_reset_to_factory() {
     let r = PayloadReader::new(&s.response);
     for f in [
         rsl::response::E1_LOWER_LIMIT,
-        rsl::response::E1_LOWER_LIMIT_2, // E1's upper limit (misnamed in table 6-203)
+        rsl::response::E1_UPPER_LIMIT,
         rsl::response::E6_LOWER_LIMIT,
         rsl::response::E6_UPPER_LIMIT,
     ] {

@@ -66,11 +66,11 @@ const READ_UPPER: [Field; 6] = [
     rsl::response::J6_UPPER_LIMIT,
 ];
 /// The external-axis limits of the ReadRobotSWLimits response. The robot has no external
-/// axes, so they are 0. Table 6-203 names byte 62 "E1LowerLimit" a second time; by the write
-/// table 6-209 and the order of the others it is E1's upper limit.
+/// axes, so they are 0. (Table 6-203 names E1's upper limit "E1LowerLimit" a second time;
+/// the generated fields have it corrected: `CORRECTIONS` in shared-types/build.rs.)
 const READ_EXTERNAL: [Field; 12] = [
     rsl::response::E1_LOWER_LIMIT,
-    rsl::response::E1_LOWER_LIMIT_2,
+    rsl::response::E1_UPPER_LIMIT,
     rsl::response::E2_LOWER_LIMIT,
     rsl::response::E3_LOWER_LIMIT,
     rsl::response::E4_LOWER_LIMIT,
