@@ -492,6 +492,12 @@ mod tests {
     use crate::testing::FakeRobot;
     use crate::{ClientOptions, run_program_over};
 
+    /// Runs the program `text` against a fake robot.
+    fn run_on_fake_robot(text: &str) -> crate::Report {
+        let program = Program::parse(text, "t").unwrap();
+        run_program_over(FakeRobot::new(256), &program, &options(), &mut |_| {}).unwrap()
+    }
+
     fn options() -> ClientOptions {
         let mut o = ClientOptions::default();
         // Back to back: the fake robot counts exchanges, not time.
@@ -572,7 +578,7 @@ mod tests {
 
     #[test]
     fn unexpected_outcome_fails_the_step_and_skips_the_rest() {
-        let program = Program::parse(
+        let report = run_on_fake_robot(
             r#"
             [[step]]
             call = "Raw"
@@ -585,11 +591,7 @@ mod tests {
             [[step]]
             call = "GroupReset"
             "#,
-            "t",
-        )
-        .unwrap();
-        let report =
-            run_program_over(FakeRobot::new(256), &program, &options(), &mut |_| {}).unwrap();
+        );
         let s = &report.steps;
         assert!(s[0].passed);
         assert!(!s[1].passed);
@@ -604,7 +606,7 @@ mod tests {
     /// where the later move ended).
     #[test]
     fn a_position_read_after_another_move_is_not_the_first_moves() {
-        let program = Program::parse(
+        let report = run_on_fake_robot(
             r#"
             [[step]]
             call = "MoveAxesAbsolute"
@@ -616,11 +618,7 @@ mod tests {
             [[step]]
             call = "ReadActualPosition"
             "#,
-            "t",
-        )
-        .unwrap();
-        let report =
-            run_program_over(FakeRobot::new(256), &program, &options(), &mut |_| {}).unwrap();
+        );
         let s = &report.steps;
         assert_eq!(s[0].state, "DONE");
         assert_eq!(s[0].reached, None);
