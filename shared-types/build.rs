@@ -285,44 +285,42 @@ fn main() {
                 )
                 .unwrap();
             }
-            {
-                // By name at run time, for clients that build requests from text and show
-                // responses by field.
-                writeln!(
-                    out,
-                    "        /// Every field by its snake_case name, in payload order."
-                )
-                .unwrap();
-                writeln!(
-                    out,
-                    "        pub const FIELDS: [(&str, Field); {}] = [",
-                    sorted.len()
-                )
-                .unwrap();
-                for (name, _) in &sorted {
-                    writeln!(out, "            ({:?}, {name}),", name.to_lowercase()).unwrap();
-                }
-                writeln!(out, "        ];").unwrap();
-                writeln!(
-                    out,
-                    "        /// The six-value groups (joints J1..J6, poses X..RZ) by snake_case name."
-                )
-                .unwrap();
-                writeln!(
-                    out,
-                    "        pub const GROUPS: [(&str, [Field; 6]); {}] = [",
-                    groups.len()
-                )
-                .unwrap();
-                for (name, _) in &groups {
-                    let key = name
-                        .strip_suffix("_J1_J6")
-                        .or_else(|| name.strip_suffix("_X_RZ"))
-                        .unwrap_or(name);
-                    writeln!(out, "            ({:?}, {name}),", key.to_lowercase()).unwrap();
-                }
-                writeln!(out, "        ];").unwrap();
+            // By name at run time, for clients that build requests from text and show
+            // responses by field.
+            writeln!(
+                out,
+                "        /// Every field by its snake_case name, in payload order."
+            )
+            .unwrap();
+            writeln!(
+                out,
+                "        pub const FIELDS: [(&str, Field); {}] = [",
+                sorted.len()
+            )
+            .unwrap();
+            for (name, _) in &sorted {
+                writeln!(out, "            ({:?}, {name}),", name.to_lowercase()).unwrap();
             }
+            writeln!(out, "        ];").unwrap();
+            writeln!(
+                out,
+                "        /// The six-value groups (joints J1..J6, poses X..RZ) by snake_case name."
+            )
+            .unwrap();
+            writeln!(
+                out,
+                "        pub const GROUPS: [(&str, [Field; 6]); {}] = [",
+                groups.len()
+            )
+            .unwrap();
+            for (name, _) in &groups {
+                let key = name
+                    .strip_suffix("_J1_J6")
+                    .or_else(|| name.strip_suffix("_X_RZ"))
+                    .unwrap_or(name);
+                writeln!(out, "            ({:?}, {name}),", key.to_lowercase()).unwrap();
+            }
+            writeln!(out, "        ];").unwrap();
             writeln!(out, "    }}").unwrap();
         }
         writeln!(out, "}}").unwrap();

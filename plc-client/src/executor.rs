@@ -99,7 +99,6 @@ pub(crate) fn execute<T: Transport>(
         position_tolerance_deg,
         progress,
         tracked: vec![Tracked::default(); program.steps.len()],
-        live_enables: Vec::new(),
         last_move: None,
         stopped: false,
         messages: Vec::new(),
@@ -116,8 +115,6 @@ struct Executor<'a, T: Transport> {
     position_tolerance_deg: f64,
     progress: &'a mut dyn FnMut(&ProgressEvent),
     tracked: Vec<Tracked>,
-    /// The Enable-type commands later steps of the same command type update.
-    live_enables: Vec<CommandHandle>,
     last_move: Option<usize>,
     stopped: bool,
     messages: Vec<RobotMessage>,
@@ -177,18 +174,9 @@ impl<T: Transport> Executor<'_, T> {
                 })
             )
         });
+        let live_enable = self.live_enable(&step.request);
         let task = self.runner.task_mut();
         let now = task.now();
-        let live_enable = self
-            .live_enables
-            .iter()
-            .copied()
-            .filter(|_| step.request.is_enable_type())
-            .find(|&h| {
-                task.status(h).is_some_and(|s| {
-                    !s.is_final() && !s.abandoned && s.command_type == step.request.command_type()
-                })
-            });
         let result = match live_enable {
             Some(h) => {
                 let before = task.status(h).map_or(0, |s| s.responses);
@@ -204,9 +192,6 @@ impl<T: Transport> Executor<'_, T> {
                 return;
             }
         };
-        if step.request.is_enable_type() && live_enable.is_none() {
-            self.live_enables.push(handle);
-        }
         let t = &mut self.tracked[i];
         t.handle = Some(handle);
         t.submitted_at = now;
@@ -222,6 +207,20 @@ impl<T: Transport> Executor<'_, T> {
             index: i + 1,
             call: step.call.clone(),
         });
+    }
+
+    /// The command an Enable-type `request` updates: an earlier step's of the same command
+    /// type that has not ended.
+    fn live_enable(&self, request: &Request) -> Option<CommandHandle> {
+        if !request.is_enable_type() {
+            return None;
+        }
+        let task = self.runner.task();
+        self.tracked.iter().filter_map(|t| t.handle).find(|&h| {
+            task.status(h).is_some_and(|s| {
+                !s.is_final() && !s.abandoned && s.command_type == request.command_type()
+            })
+        })
     }
 
     fn wait_satisfied(&self, i: usize) -> bool {
@@ -384,9 +383,7 @@ impl<T: Transport> Executor<'_, T> {
             })
             .collect()
     }
-}
 
-impl<T: Transport> Executor<'_, T> {
     /// The response of a table step that reads or writes (not a move) and succeeded, by
     /// field.
     fn response_fields(&self, step: &Step, t: &Tracked) -> Vec<(&'static str, String)> {

@@ -131,7 +131,7 @@ impl Request {
     /// Whether the command moves the arm: a move, a jog or ReturnToPrimary, typed or not.
     pub fn moves_the_arm(&self) -> bool {
         let name = self.name();
-        name.starts_with("Move") || name == "GroupJog" || name == "ReturnToPrimary"
+        is_move(name) || name == "GroupJog" || name == "ReturnToPrimary"
     }
 
     /// Whether the command is of Enable type: it stays ACTIVE with parameters that can be
@@ -141,9 +141,10 @@ impl Request {
             Self::ExchangeConfiguration { .. }
             | Self::ReadMessages { .. }
             | Self::EnableRobot { .. } => true,
-            Self::Raw { .. } => {
-                crate::table_step::find(self.name()).is_some_and(crate::table_step::is_enable_type)
-            }
+            Self::Raw { command_type, .. } => tables::REQUESTS
+                .iter()
+                .find(|t| t.command_type == *command_type)
+                .is_some_and(crate::table_step::is_enable_type),
             _ => false,
         }
     }
@@ -759,6 +760,11 @@ const _: () = {
     assert!(SW_LIMITS_UPPER[0].offset == r::J1_UPPER_LIMIT.offset);
     assert!(SW_LIMITS_UPPER[5].offset == r::J6_UPPER_LIMIT.offset);
 };
+
+/// Whether the specification's function `function` is a move (MoveLinearAbsolute, ...).
+pub fn is_move(function: &str) -> bool {
+    function.starts_with("Move")
+}
 
 /// The specification's function name of a command type, or "Unknown".
 pub fn command_name(command_type: u16) -> &'static str {

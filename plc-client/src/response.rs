@@ -537,7 +537,7 @@ fn value_text(r: &PayloadReader, payload: &[u8], name: &str, f: Field) -> String
         WireType::Char => char::from(r.u8(f)).to_string(),
     };
     match f.layout {
-        Layout::Scalar(WireType::U16) if name.ends_with("_rate") || name == "override" => {
+        Layout::Scalar(_) if Percent::is_field(name, f) => {
             percent(r, f).map_or_else(|| "default".to_owned(), |p| format!("{p} %"))
         }
         Layout::Scalar(t) => scalar(f, t),

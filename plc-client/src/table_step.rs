@@ -24,7 +24,7 @@ use shared_types::srci::message::{CommandHeader, Percent, execution_mode};
 use shared_types::srci::payload::{Field, FieldTable, Layout, PayloadWriter, WireType};
 use shared_types::srci::tables;
 
-use crate::request::Request;
+use crate::request::{Request, is_move};
 
 /// Fields of the command header, which the client fills in itself.
 const HEADER_FIELDS: [&str; 6] = [
@@ -96,7 +96,7 @@ pub fn request(table: &FieldTable, keys: &toml::Table) -> Result<Request, String
     let mut w = PayloadWriter::new(&mut bytes);
     let mut written: Vec<(&str, Field)> = Vec::new();
     for (name, field) in table.fields {
-        if is_percent(name, *field) {
+        if Percent::is_field(name, *field) {
             w.set_u16(*field, Percent::Default.to_wire());
         }
     }
@@ -154,15 +154,10 @@ fn overlaps(a: Field, b: Field) -> bool {
     a0 < b0 + bn && b0 < a0 + an
 }
 
-/// A UINT percentage with 0xFFFF as "the default": VelocityRate and its kin, Override.
-fn is_percent(name: &str, field: Field) -> bool {
-    field.layout == Layout::Scalar(WireType::U16) && (name.ends_with("_rate") || name == "override")
-}
-
 /// The ExecutionMode of the step: a move (or a wait) runs on the primary sequence, aborting
 /// the others with `aborting = true`; jogging on the secondary; everything else in parallel.
 fn mode(table: &FieldTable, keys: &toml::Table) -> Result<u8, String> {
-    let sequence = table.function.starts_with("Move")
+    let sequence = is_move(table.function)
         || table.function == "WaitTime"
         || table.function == "ReturnToPrimary";
     let aborting = match keys.get("aborting") {
@@ -175,7 +170,7 @@ fn mode(table: &FieldTable, keys: &toml::Table) -> Result<u8, String> {
             ));
         }
     };
-    if aborting && !table.function.starts_with("Move") {
+    if aborting && !is_move(table.function) {
         return Err(format!(
             "key `aborting`: {} is not a move; only moves abort the others",
             table.function
@@ -210,7 +205,7 @@ fn write_field(
     value: &toml::Value,
 ) -> Result<(), String> {
     match field.layout {
-        Layout::Scalar(_) if is_percent(name, field) => {
+        Layout::Scalar(_) if Percent::is_field(name, field) => {
             let p = number(value)?;
             if !(0.0..=PERCENT_MAX).contains(&p) {
                 return Err(format!("{p} is outside 0..={PERCENT_MAX} percent"));

@@ -228,8 +228,8 @@ impl PathStop {
 
 /// The time at which `profile` reaches path position `s` (its position only grows), to
 /// [`POSITION_RESOLUTION`] or [`TIME_RESOLUTION`]: Newton steps from `guess`, the time of a
-/// position a tick or a prediction step before; a step that would leave the times known to lie before and after
-/// `s` (or a profile standing there) halves them instead.
+/// position a tick or a prediction step before; a step that would leave the times known to
+/// lie before and after `s` (or a profile standing there) halves them instead.
 fn time_at(profile: &Profile, s: f64, guess: f64) -> f64 {
     let duration = profile.duration();
     let resolution = TIME_RESOLUTION * duration;

@@ -229,6 +229,15 @@ impl Percent {
         }
     }
 
+    /// Whether a table field named `name` (in snake_case, as `tables::REQUESTS` and
+    /// `tables::RESPONSES` name them) carries a percentage: a UINT rate (`velocity_rate`,
+    /// `jerk_rate`, ...) or `override`.
+    pub fn is_field(name: &str, field: crate::srci::payload::Field) -> bool {
+        use crate::srci::payload::{Layout, WireType};
+        field.layout == Layout::Scalar(WireType::U16)
+            && (name.ends_with("_rate") || name == "override")
+    }
+
     pub fn to_wire(self) -> u16 {
         match self {
             Self::Default => 0xFFFF,

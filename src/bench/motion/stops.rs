@@ -87,21 +87,14 @@ pub struct Stops {
     pub time_scale_tick: CallTimes,
 }
 
-/// The clock time of every tick of a stop, by what it braked.
-#[derive(Default)]
-struct TickTimes {
-    path: Vec<u64>,
-    time_scale: Vec<u64>,
+/// Whether a tick of `stop` brakes the path parameter.
+fn on_path(stop: &Stop) -> bool {
+    matches!(stop, Stop::OnPath(_))
 }
 
-impl TickTimes {
-    fn record(&mut self, stop: &Stop, ns: u64) {
-        match stop {
-            Stop::OnPath(_) => self.path.push(ns),
-            Stop::TimeScale(_) => self.time_scale.push(ns),
-            Stop::Path(_) => {}
-        }
-    }
+/// Whether a tick of `stop` brakes the table's time scale.
+fn on_time_scale(stop: &Stop) -> bool {
+    matches!(stop, Stop::TimeScale(_))
 }
 
 /// A line stopped after `share` of its duration: the plan, the profile time and the joints
@@ -125,7 +118,7 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
         })
         .collect();
     let mut decisions = Vec::new();
-    let (mut ours_ticks, mut time_scale_ticks) = (TickTimes::default(), TickTimes::default());
+    let (mut path_ticks, mut time_scale_ticks) = (Vec::new(), Vec::new());
     let at = STOP_AT
         .iter()
         .map(|&share| {
@@ -145,12 +138,16 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
                     TimeScale::at(1.0),
                     &stopped.joints,
                 );
-                let on_path = matches!(ours, Stop::OnPath(_));
                 let limits = &robot.limits;
-                let (took, handed_over) =
-                    run(ours, &stopped, limits, &mut ours_ticks, &mut set.ours_peaks);
+                set.path_stops += usize::from(on_path(&ours));
+                let (took, handed_over) = run(
+                    ours,
+                    &stopped,
+                    limits,
+                    (&mut path_ticks, on_path),
+                    &mut set.ours_peaks,
+                );
                 set.ours_s.push(took);
-                set.path_stops += usize::from(on_path);
                 set.handovers += usize::from(handed_over);
                 let time_scale = Stop::TimeScale(ScaleBrake::new(
                     stopped.tau,
@@ -163,7 +160,7 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
                     time_scale,
                     &stopped,
                     limits,
-                    &mut time_scale_ticks,
+                    (&mut time_scale_ticks, on_time_scale),
                     &mut set.time_scale_peaks,
                 );
                 set.time_scale_s.push(took);
@@ -178,8 +175,8 @@ pub fn measure(robot: &Robot, problems: &Problems) -> Stops {
     Stops {
         at,
         decision,
-        path_tick: CallTimes::of_samples(ours_ticks.path),
-        time_scale_tick: CallTimes::of_samples(time_scale_ticks.time_scale),
+        path_tick: CallTimes::of_samples(path_ticks),
+        time_scale_tick: CallTimes::of_samples(time_scale_ticks),
     }
 }
 
@@ -224,16 +221,18 @@ fn slowest_joint(robot: &Robot, stopped: &Stopped) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Runs `stop` to rest in ticks, each tick's clock time to `times` and what it commanded
-/// (over `limits`) to `peaks`: the time it takes (NaN if it never stands) and whether a
-/// stop of the path parameter handed over to the time scale.
+/// Runs `stop` to rest in ticks, the clock time of each tick that `times.1` selects to
+/// `times.0` and what every tick commanded (over `limits`) to `peaks`: the time it takes
+/// (NaN if it never stands) and whether a stop of the path parameter handed over to the
+/// time scale.
 fn run(
     mut stop: Stop,
     stopped: &Stopped,
     limits: &JointLimitsRad,
-    times: &mut TickTimes,
+    times: (&mut Vec<u64>, fn(&Stop) -> bool),
     peaks: &mut Peaks,
 ) -> (f64, bool) {
+    let (times, timed) = times;
     let mut scale = TimeScale::at(1.0);
     let mut before = stopped.point();
     let mut handed_over = false;
@@ -241,9 +240,12 @@ fn run(
         let braking = stop;
         let start = Instant::now();
         let next = stop.advance(&stopped.plan, TICK_S, &mut scale, &before.q);
-        times.record(&braking, elapsed_ns(start));
+        let ns = elapsed_ns(start);
+        if timed(&braking) {
+            times.push(ns);
+        }
         peaks.take(limits, &before, &next.point);
-        handed_over |= matches!(braking, Stop::OnPath(_)) && matches!(stop, Stop::TimeScale(_));
+        handed_over |= on_path(&braking) && on_time_scale(&stop);
         before = next.point;
         if next.stopped {
             return (tick as f64 * TICK_S, handed_over);
