@@ -185,8 +185,19 @@ fn the_shipped_cell_program_runs_its_lines_circle_blends_and_interrupt() {
     let program = Path::new(env!("CARGO_MANIFEST_DIR")).join("plc-client/programs/cell.toml");
     let (stdout, svg) = plc_with_plot(&c, &program);
     assert!(
-        stdout.contains("result: SUCCESS (17/17 steps passed)"),
+        stdout.contains("result: SUCCESS (18/18 steps passed)"),
         "{stdout}"
+    );
+    // The read after the MoveDirectAbsolute compares the flange with its target pose.
+    let direct = stdout
+        .lines()
+        .find(|l| l.contains(" MoveDirectAbsolute "))
+        .expect("the MoveDirectAbsolute row");
+    assert!(
+        direct.contains("pose -417.03 115.01 373.15")
+            && direct.contains(" mm ")
+            && direct.trim_end().ends_with(" ok"),
+        "{direct}"
     );
     for call in [
         "MoveLinearAbsolute",

@@ -475,8 +475,8 @@ fn a_program_jogs_with_group_jog_steps_that_update_one_command() {
         ["ACTIVE", "ACTIVE", "DONE"]
     );
     let (before, after) = (
-        s[2].reached.expect("position before"),
-        s[6].reached.expect("position after"),
+        s[2].reached.expect("position before").joints_deg,
+        s[6].reached.expect("position after").joints_deg,
     );
     assert!(after[0] > before[0] + 1.0, "J1: {before:?} -> {after:?}");
     for i in 1..6 {

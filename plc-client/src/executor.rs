@@ -6,9 +6,9 @@
 //! DONE) once it reports ACTIVE (EnableRobot: with the requested Enabled bit), and a later
 //! step of the same command type updates that command under its CmdID instead of sending a
 //! new one. Once any step has failed, no further step is submitted (the rest are SKIPPED).
-//! A move's reached joints come from the first ReadActualPosition step submitted after the
-//! move was DONE and before the next move (of any kind, jogs included); a deviation above
-//! the position tolerance fails the move.
+//! A move with an absolute target (joints or a pose, see [`Target`]) is read back by the
+//! first ReadActualPosition step submitted after it was DONE and before the next move (of
+//! any kind, jogs included); a deviation above the position tolerance fails the move.
 
 use std::time::Duration;
 
@@ -23,6 +23,7 @@ use crate::program::{Expect, Program, Step, Wait};
 use crate::report::StepReport;
 use crate::request::Request;
 use crate::response::{ActualPosition, MoveProgress, RobotMessage, fields_by_name, robot_enabled};
+use crate::target::{Target, Tolerance};
 use crate::transport::Transport;
 
 /// What a program run reports while it goes, for live display.
@@ -76,9 +77,10 @@ struct Tracked {
     seen_progress: Option<i64>,
     outcome: Option<Outcome>,
     ended_at: Option<Duration>,
-    /// For a ReadActualPosition step: the move whose reached joints it reads.
+    /// For a ReadActualPosition step: the move whose reached position it reads.
     position_for: Option<usize>,
-    reached: Option<[f64; 6]>,
+    /// For a move, where it was read back; for a ReadActualPosition step, what it read.
+    reached: Option<ActualPosition>,
     passed: bool,
     note: String,
 }
@@ -89,14 +91,14 @@ pub(crate) fn execute<T: Transport>(
     runner: &mut CycleRunner<T>,
     program: &Program,
     command_timeout: Duration,
-    position_tolerance_deg: f64,
+    position_tolerance: Tolerance,
     progress: &mut dyn FnMut(&ProgressEvent),
 ) -> (Vec<StepReport>, Vec<RobotMessage>, Option<ClientError>) {
     let mut ex = Executor {
         runner,
         steps: &program.steps,
         command_timeout,
-        position_tolerance_deg,
+        position_tolerance,
         progress,
         tracked: vec![Tracked::default(); program.steps.len()],
         last_move: None,
@@ -112,7 +114,7 @@ struct Executor<'a, T: Transport> {
     runner: &'a mut CycleRunner<T>,
     steps: &'a [Step],
     command_timeout: Duration,
-    position_tolerance_deg: f64,
+    position_tolerance: Tolerance,
     progress: &'a mut dyn FnMut(&ProgressEvent),
     tracked: Vec<Tracked>,
     last_move: Option<usize>,
@@ -197,8 +199,8 @@ impl<T: Transport> Executor<'_, T> {
         t.submitted_at = now;
         t.responses_before = responses_before;
         match step.request {
-            Request::MoveAxesAbsolute(_) => self.last_move = Some(i),
             Request::ReadActualPosition { .. } => t.position_for = position_for,
+            _ if Target::of(&step.request).is_some() => self.last_move = Some(i),
             // A position read after another move no longer tells where this one ended.
             _ if step.request.moves_the_arm() => self.last_move = None,
             _ => {}
@@ -273,7 +275,7 @@ impl<T: Transport> Executor<'_, T> {
         let position = (matches!(step.request, Request::ReadActualPosition { .. })
             && status.state == state::DONE
             && outcome.is_some())
-        .then(|| ActualPosition::decode(&status.response).joints_deg);
+        .then(|| ActualPosition::decode(&status.response));
         let (state_now, code_now) = (status.state, status.code);
 
         let t = &mut self.tracked[i];
@@ -293,10 +295,10 @@ impl<T: Transport> Executor<'_, T> {
             });
         }
         let position_for = t.position_for;
-        if let Some(joints) = position {
-            t.reached = Some(joints);
+        if let Some(read) = position {
+            t.reached = Some(read);
             if let Some(m) = position_for {
-                self.tracked[m].reached.get_or_insert(joints);
+                self.tracked[m].reached.get_or_insert(read);
                 self.check_position(m);
             }
         }
@@ -327,29 +329,26 @@ impl<T: Transport> Executor<'_, T> {
         });
     }
 
-    /// Fails a move whose read-back position is off its target.
+    /// Fails a move whose read-back position is off its target; remarks on one that cannot
+    /// be compared with its read.
     fn check_position(&mut self, m: usize) {
-        let steps = self.steps;
-        let Request::MoveAxesAbsolute(mv) = &steps[m].request else {
-            return;
-        };
         let t = &mut self.tracked[m];
-        let Some(reached) = t.reached else {
+        let (Some(target), Some(reached)) = (Target::of(&self.steps[m].request), t.reached) else {
             return;
         };
-        let deviation = mv
-            .joints_deg
-            .iter()
-            .zip(reached)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        if t.passed && deviation > self.position_tolerance_deg {
-            t.passed = false;
-            t.note = format!(
-                "reached joints {deviation:.3} deg off target (tolerance {})",
-                self.position_tolerance_deg
-            );
-            self.stopped = true;
+        let tolerance = self.position_tolerance;
+        match target.deviation(&reached) {
+            Ok(d) if t.passed && !d.within(tolerance) => {
+                t.passed = false;
+                t.note = format!(
+                    "reached {d} off target (tolerance {} mm, {} deg)",
+                    tolerance.mm, tolerance.deg
+                );
+                self.stopped = true;
+            }
+            Ok(_) => {}
+            Err(reason) if t.note.is_empty() => t.note = reason,
+            Err(_) => {}
         }
     }
 
@@ -371,10 +370,7 @@ impl<T: Transport> Executor<'_, T> {
                     state: state.to_owned(),
                     code: t.code(),
                     duration: t.ended_at.map(|e| e.saturating_sub(t.submitted_at)),
-                    target: match &step.request {
-                        Request::MoveAxesAbsolute(m) => Some(m.joints_deg),
-                        _ => None,
-                    },
+                    target: Target::of(&step.request),
                     reached: t.reached,
                     passed: t.passed,
                     note: t.note.clone(),
@@ -486,6 +482,7 @@ fn judge(step: &Step, outcome: Outcome) -> (bool, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::target::Deviation;
     use crate::testing::FakeRobot;
     use crate::{ClientOptions, run_program_over};
 
@@ -551,7 +548,10 @@ mod tests {
         assert_eq!((s[3].state.as_str(), s[3].code), ("ABORTED", 0x6C06));
         assert_eq!(s[4].state, "DONE");
         assert_eq!(s[4].reached, None, "no read between move B and move C");
-        assert!(s[5].deviation_deg().unwrap() < 1e-4, "{table}");
+        assert!(
+            matches!(s[5].deviation(), Some(Deviation::Joints { deg }) if deg < 1e-4),
+            "{table}"
+        );
         assert_eq!(s[7].state, "ACTIVE");
         assert!(s.iter().all(|s| s.duration.is_some()));
 

@@ -18,6 +18,7 @@ pub mod report;
 pub mod request;
 pub mod response;
 pub mod table_step;
+pub mod target;
 #[cfg(test)]
 mod testing;
 pub mod transport;
@@ -37,6 +38,7 @@ pub use request::{
     DefaultDynamics, FrameData, GroupJog, LoadData, MoveAxesAbsolute, MoveDirectAbsolute,
     ReferenceDynamics, Request, SwLimits, Timestamp, ToolData,
 };
+pub use target::{Deviation, Target, Tolerance};
 pub use transport::{TcpTransport, Transport, TransportError};
 
 /// The built-in demo program (`rc demo`).
@@ -53,9 +55,8 @@ pub struct ClientOptions {
     pub handshake_timeout: Duration,
     /// Per command, from submission to its final state (a step's `timeout_ms` overrides it).
     pub command_timeout: Duration,
-    /// Largest joint deviation (degrees) between a DONE move's target and the position read
-    /// back after it.
-    pub position_tolerance_deg: f64,
+    /// Largest deviation between a DONE move's target and the position read back after it.
+    pub position_tolerance: Tolerance,
 }
 
 impl Default for ClientOptions {
@@ -66,7 +67,7 @@ impl Default for ClientOptions {
             response_timeout: transport::DEFAULT_RESPONSE_TIMEOUT,
             handshake_timeout: Duration::from_secs(10),
             command_timeout: Duration::from_secs(30),
-            position_tolerance_deg: 0.05,
+            position_tolerance: Tolerance { deg: 0.05, mm: 0.1 },
         }
     }
 }
@@ -139,7 +140,7 @@ pub fn run_program_over<T: Transport>(
         &mut runner,
         program,
         options.command_timeout,
-        options.position_tolerance_deg,
+        options.position_tolerance,
         progress,
     );
     let task = runner.task();

@@ -3,7 +3,8 @@
 use std::io::{self, Write};
 use std::time::Duration;
 
-use crate::response::{RobotData, RobotMessage};
+use crate::response::{ActualPosition, RobotData, RobotMessage};
+use crate::target::{Deviation, Target};
 use crate::transport::RoundTripSummary;
 
 /// The result of one step.
@@ -20,13 +21,14 @@ pub struct StepReport {
     pub code: u16,
     /// Submission to the final (or accepted) state.
     pub duration: Option<Duration>,
-    /// Target joints of a move, in degrees.
-    pub target: Option<[f64; 6]>,
-    /// Joints read back: for a move, by the first ReadActualPosition step submitted after it
-    /// was DONE (and before the next move); for a ReadActualPosition step, what it read.
-    pub reached: Option<[f64; 6]>,
+    /// The absolute target of a move.
+    pub target: Option<Target>,
+    /// The position read back: for a move with a target, by the first ReadActualPosition
+    /// step submitted after it was DONE (and before the next move); for a
+    /// ReadActualPosition step, what it read.
+    pub reached: Option<ActualPosition>,
     pub passed: bool,
-    /// Why the step failed, or other remarks.
+    /// Why the step failed, or other remarks (a target that could not be compared).
     pub note: String,
     /// For a step of a call without a typed request that does not move the arm (a read or
     /// a write by its table's fields): its response by field, name and value as text.
@@ -34,15 +36,25 @@ pub struct StepReport {
 }
 
 impl StepReport {
-    /// Largest |reached − target| over the joints, for moves with both.
-    pub fn deviation_deg(&self) -> Option<f64> {
-        let (t, r) = (self.target?, self.reached?);
-        Some(
-            t.iter()
-                .zip(r)
-                .map(|(t, r)| (t - r).abs())
-                .fold(0.0, f64::max),
-        )
+    /// How far the position read back lies from the target, for moves with both in the
+    /// same tool and frame.
+    pub fn deviation(&self) -> Option<Deviation> {
+        self.target?.deviation(&self.reached?).ok()
+    }
+
+    /// The position read back, as the target is given: the pose for a pose, else the
+    /// joints.
+    fn reached_text(&self) -> String {
+        match (self.target, self.reached) {
+            (_, None) => "-".to_owned(),
+            (Some(Target::Pose { tool, frame, .. }), Some(r)) => Target::Pose {
+                pose: r.cartesian,
+                tool,
+                frame,
+            }
+            .to_string(),
+            (_, Some(r)) => Target::Joints(r.joints_deg).to_string(),
+        }
     }
 }
 
@@ -65,18 +77,6 @@ pub struct Report {
     pub robot: Option<RobotData>,
 }
 
-fn joints(j: Option<[f64; 6]>) -> String {
-    j.map_or_else(
-        || "-".to_owned(),
-        |j| {
-            j.iter()
-                .map(|q| format!("{q:.2}"))
-                .collect::<Vec<_>>()
-                .join(" ")
-        },
-    )
-}
-
 fn ms(d: Duration) -> String {
     format!("{:.1} ms", d.as_secs_f64() * 1e3)
 }
@@ -95,9 +95,9 @@ impl Report {
             "state",
             "code",
             "time",
-            "target [deg]",
-            "reached [deg]",
-            "dev [deg]",
+            "target [deg | mm, deg]",
+            "reached",
+            "deviation",
             "result",
         ];
         let rows: Vec<[String; 9]> = self
@@ -110,12 +110,14 @@ impl Report {
                     s.state.clone(),
                     format!("0x{:04X}", s.code),
                     s.duration.map_or_else(|| "-".to_owned(), ms),
-                    joints(s.target),
-                    joints(s.reached),
-                    s.deviation_deg()
-                        .map_or_else(|| "-".to_owned(), |d| format!("{d:.3}")),
-                    if s.passed {
+                    s.target.map_or_else(|| "-".to_owned(), |t| t.to_string()),
+                    s.reached_text(),
+                    s.deviation()
+                        .map_or_else(|| "-".to_owned(), |d| d.to_string()),
+                    if s.passed && s.note.is_empty() {
                         "ok".to_owned()
+                    } else if s.passed {
+                        format!("ok ({})", s.note)
                     } else {
                         format!("FAILED {}", s.note)
                     },
@@ -214,8 +216,13 @@ mod tests {
             response: Vec::new(),
         };
         let mut mv = step(2, "MoveAxesAbsolute", false);
-        mv.target = Some([0.0, 90.0, 90.0, 90.0, -90.0, 0.0]);
-        mv.reached = Some([0.0, 90.5, 90.0, 90.0, -90.0, 0.0]);
+        mv.target = Some(Target::Joints([0.0, 90.0, 90.0, 90.0, -90.0, 0.0]));
+        mv.reached = Some(ActualPosition {
+            tool: 0,
+            frame: 0,
+            cartesian: [0.0; 6],
+            joints_deg: [0.0, 90.5, 90.0, 90.0, -90.0, 0.0],
+        });
         mv.note = "expected ABORTED".to_owned();
         let mut read = step(3, "ReadToolData", true);
         read.response = vec![
@@ -234,7 +241,10 @@ mod tests {
             robot: None,
         };
         assert!(!report.success());
-        assert_eq!(report.steps[1].deviation_deg(), Some(0.5));
+        assert_eq!(
+            report.steps[1].deviation(),
+            Some(Deviation::Joints { deg: 0.5 })
+        );
         let mut out = Vec::new();
         report.print_table(&mut out).unwrap();
         let text = String::from_utf8(out).unwrap();

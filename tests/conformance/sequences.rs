@@ -174,16 +174,16 @@ fn a_jog_away_from_a_held_move_needs_the_way_back_before_it_continues() {
         "#,
     );
     assert_eq!(s[9].code, code::NOT_IN_PRIMARY_POSITION);
-    let left_at = s[5].reached.expect("where the move was held");
-    let jogged = s[8].reached.expect("where the jog ended");
+    let left_at = s[5].reached.expect("where the move was held").joints_deg;
+    let jogged = s[8].reached.expect("where the jog ended").joints_deg;
     assert!(jogged[1] > left_at[1] + 1.0, "{left_at:?} -> {jogged:?}");
-    let back = s[11].reached.expect("after ReturnToPrimary");
+    let back = s[11].reached.expect("after ReturnToPrimary").joints_deg;
     assert!(
         max_deviation(back, left_at) < 0.01,
         "{left_at:?} vs {back:?}"
     );
     assert_eq!(s[3].state, "DONE", "the held move ended");
-    let end = s[13].reached.expect("where the move ended");
+    let end = s[13].reached.expect("where the move ended").joints_deg;
     assert!(
         max_deviation(end, [40.0, 90.0, 90.0, 90.0, -90.0, 0.0]) < 0.01,
         "{end:?}"
