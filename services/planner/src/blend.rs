@@ -59,6 +59,13 @@
 //! over the joint speed at any point is the rate at which the override may change (and a
 //! stop brake) during the overlap.
 //!
+//! Where both moves are Cartesian, the speeds of their TCPs add up as well (two lines on in
+//! the same direction, B speeding up while A still cruises): the TCP of each, on the
+//! blended joints, keeps the higher of the two moves' programmed speeds (their
+//! VelocityRates of the TCP limit), sampled at the same points with a margin for what the
+//! TCP jerk of both allows between them; beyond it the overlap shrinks too. A joint move
+//! keeps no TCP speed, so a blend with one is bounded by the joint limits alone.
+//!
 //! The jerks of the two moves add up as well: where both change a joint's acceleration the
 //! same way at their jerk limits (A easing its braking while B starts the joint on, say),
 //! the sum reaches twice the limit (1.65 times in a joint → line → line → joint sequence).
@@ -75,6 +82,7 @@ use shared_types::ipc::{AXES, JointPoint, MotionCommand};
 use shared_types::srci::message::code;
 
 use crate::kinematics::Kinematics;
+use crate::linear_move::TcpLimits;
 use crate::motion::Path;
 
 /// Largest time step (s) between the points at which the sum is checked against the limits.
@@ -102,6 +110,8 @@ const GRID: usize = SHORTER_OVERLAPS * GRID_PER_SHARE;
 /// Bisection steps for the longest overlap within the corner deviation (each step samples
 /// the whole overlap).
 const DEVIATION_STEPS: usize = 10;
+/// Time step (s) of the central difference that gives the blended TCP's speed.
+const TCP_SPEED_STEP_S: f64 = 1e-4;
 /// Overlaps shorter than this (s) are not worth a blend: exact stop.
 const MIN_OVERLAP_S: f64 = 2e-3;
 /// Share of the acceleration limits kept free for a stop on the blended path, whatever the
@@ -205,6 +215,9 @@ pub trait Leg {
     fn override_rate(&self) -> f64;
     /// The move's JerkRate: the share of the robot's jerk limits it keeps to.
     fn jerk_rate(&self) -> f64;
+    /// The TCP limits a Cartesian move keeps (the robot's times its rates); none for a joint
+    /// move.
+    fn tcp_limits(&self) -> Option<TcpLimits>;
 }
 
 /// What a blend is planned from.
@@ -536,8 +549,18 @@ impl<'a, A: Leg, B: Leg> Sampler<'a, A, B> {
         let samples = samples(overlap);
         let h = overlap / samples as f64;
         let corner = &self.request.corner;
+        let tcp_bound = self.tcp_speed_bound();
         for k in 0..=samples {
             let (a, b) = self.legs(overlap, h * k as f64);
+            if let Some((speed, jerk)) = tcp_bound {
+                let q = core::array::from_fn(|i| a.q[i] + b.q[i] - corner[i]);
+                let qd = core::array::from_fn(|i| a.qd[i] + b.qd[i]);
+                // Between samples the speed may rise by what the jerk of both allows.
+                let margin = jerk * h * h / 8.0;
+                if self.tcp_speed(&q, &qd) + margin > speed * (1.0 + LIMIT_TOLERANCE) {
+                    return None;
+                }
+            }
             for (i, corner) in corner.iter().enumerate() {
                 let q = a.q[i] + b.q[i] - corner;
                 // Between samples: the chord error of q (|q̈| ≤ a) and, where both move the
@@ -575,6 +598,25 @@ impl<'a, A: Leg, B: Leg> Sampler<'a, A, B> {
             }
         }
         Some(rate)
+    }
+
+    /// The TCP speed (m/s) a blend of two Cartesian moves keeps, the higher of the two
+    /// moves' own, and the sum of their TCP jerk limits (m/s³); none where a joint move takes
+    /// part (it keeps no TCP speed).
+    fn tcp_speed_bound(&self) -> Option<(f64, f64)> {
+        let a = self.request.outgoing.tcp_limits()?;
+        let b = self.request.incoming.tcp_limits()?;
+        Some((a.velocity.max(b.velocity), a.jerk + b.jerk))
+    }
+
+    /// The speed (m/s) of either move's TCP at the joints `q` moving at `qd`: the larger.
+    fn tcp_speed(&self, q: &[f64; AXES], qd: &[f64; AXES]) -> f64 {
+        let along = |dt: f64| core::array::from_fn(|i| q[i] + qd[i] * dt);
+        let (before, after) = (along(-TCP_SPEED_STEP_S), along(TCP_SPEED_STEP_S));
+        let speed = |leg: &dyn Fn(&[f64; AXES]) -> Vector3<f64>| {
+            (leg(&after) - leg(&before)).norm() / (2.0 * TCP_SPEED_STEP_S)
+        };
+        speed(&|q| self.request.outgoing.tcp(q)).max(speed(&|q| self.request.incoming.tcp(q)))
     }
 }
 
@@ -662,6 +704,13 @@ impl Leg for PathLeg<'_> {
 
     fn jerk_rate(&self) -> f64 {
         self.path.timing().jerk_rate
+    }
+
+    fn tcp_limits(&self) -> Option<TcpLimits> {
+        match self.path {
+            Path::Joint(_) => None,
+            Path::Linear(m) => Some(*m.tcp_limits()),
+        }
     }
 }
 

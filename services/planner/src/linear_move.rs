@@ -536,6 +536,9 @@ pub struct LinearMove {
     warp: Option<PathWarp>,
     /// The limits a stop on the time scale of a table keeps.
     scale_limits: ScaleLimits,
+    /// The robot's TCP limits times the command's rates: what the move keeps, and a blend
+    /// into another Cartesian move (see [`blend`](crate::blend)).
+    tcp_limits: TcpLimits,
 }
 
 impl LinearMove {
@@ -584,6 +587,12 @@ impl LinearMove {
             timing,
             warp,
             scale_limits: scale_limits(command, arm),
+            tcp_limits: TcpLimits {
+                velocity: command.velocity_scale * arm.tcp.velocity,
+                acceleration: command.acceleration_scale.max(command.deceleration_scale)
+                    * arm.tcp.acceleration,
+                jerk: command.jerk_scale * arm.tcp.jerk,
+            },
         }))
     }
 
@@ -602,6 +611,11 @@ impl LinearMove {
     /// (what the reserve holds back is there for the stop).
     pub fn scale_limits(&self) -> &ScaleLimits {
         &self.scale_limits
+    }
+
+    /// The robot's TCP limits times the command's rates.
+    pub fn tcp_limits(&self) -> &TcpLimits {
+        &self.tcp_limits
     }
 
     /// The TCP pose at path position `s` (base frame).

@@ -362,7 +362,7 @@ mod tests {
         // Above the table it went while the table still sped up (by less than the
         // prediction tolerates), never far.
         assert!(
-            sigma >= HANDOVER_SCALE && sigma < PREDICTION_CEILING,
+            (HANDOVER_SCALE..PREDICTION_CEILING).contains(&sigma),
             "{sigma}"
         );
         assert!((sigma * td - sd).abs() < 1e-9);

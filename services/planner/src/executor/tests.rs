@@ -2645,6 +2645,37 @@ mod blending {
         rig.assert_done_at(&[1, 2, 3, 4], home());
     }
 
+    /// Two lines on in the same direction at 10 % of the TCP speed, A blending 50 mm before
+    /// the corner: B speeding up while A still cruises adds their speeds (the blended TCP
+    /// ran at 1.22 times the programmed speed). The overlap shrinks until the sum keeps the
+    /// speed, and the pair still blends.
+    #[test]
+    fn blended_lines_keep_their_programmed_tcp_speed() {
+        let mut rig = Rig::new();
+        let [mut a, mut b] =
+            [(1, 0.15), (2, 0.3)].map(|(job, y)| rig.line_by(job, [0.0, y, 0.0], [0.0; 3]));
+        for line in [&mut a, &mut b] {
+            line.velocity_scale = 0.1;
+        }
+        let a = with_blending(a, CORNER_DISTANCE, [0.05, 0.0]);
+        let (_, blends) = run_counting_blends(&mut rig, &[a, b]);
+        assert_eq!(blends, 1);
+        rig.assert_done(&[1, 2]);
+        let programmed = 0.1 * config().robot.cartesian.max_velocity_mm_s * 1e-3;
+        let fastest = rig
+            .trace
+            .windows(2)
+            .map(|w| {
+                (tcp_of(&w[1].q).translation.vector - tcp_of(&w[0].q).translation.vector).norm()
+                    / DT
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            fastest <= programmed * (1.0 + 1e-3),
+            "the TCP ran at {fastest:.4} m/s, programmed {programmed:.4} m/s"
+        );
+    }
+
     /// Runs `commands` (jobs 1..=n) to their end: the ticks it took and the blends on the
     /// way.
     fn run_counting_blends(rig: &mut Rig, commands: &[MotionCommand]) -> (usize, usize) {
