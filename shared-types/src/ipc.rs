@@ -195,6 +195,10 @@ pub struct MotionCommand {
     pub acceleration_scale: f64,
     pub deceleration_scale: f64,
     pub jerk_scale: f64,
+    /// The PLC's reference dynamics of the TCP (velocity, acceleration, deceleration, jerk)
+    /// as shares of the robot's TCP limits, in (0, 1]: what 100 % of the rates above means
+    /// for the TCP of a Cartesian move.
+    pub tcp_reference: [f64; 4],
     /// Requested duration in s; 0 = as fast as the scaled limits allow.
     pub duration_s: f64,
     /// Override for `Override`, in [0, 1].
@@ -321,6 +325,7 @@ impl MotionCommand {
             acceleration_scale: 1.0,
             deceleration_scale: 1.0,
             jerk_scale: 1.0,
+            tcp_reference: [1.0; 4],
             duration_s: 0.0,
             override_fraction: 1.0,
             pose: [0.0; 6],

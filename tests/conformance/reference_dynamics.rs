@@ -8,7 +8,7 @@ use shared_types::srci::tables::{
     read_robot_reference_dynamics as rrd, write_robot_reference_dynamics as wrd,
 };
 
-use crate::common::{Edit, expect_done, expect_error, initialized};
+use crate::common::{Edit, expect_done, expect_error, initialized, run_passing_program};
 
 #[test]
 fn reference_dynamics_within_the_robot() {
@@ -81,4 +81,44 @@ fn reference_dynamics_within_the_robot() {
         edit(&mut r);
         expect_error(&mut plc, &Request::write_reference_dynamics(&r), expected);
     }
+}
+
+/// 100 % of a Cartesian move's VelocityRate means the reference velocity: written down to
+/// 100 mm/s, it holds a 200 mm line at the default rates to at least 2 s, and the line still
+/// ends on its target. (The reference was stored and read back only: the line took 0.77 s.)
+#[test]
+fn a_lower_reference_velocity_slows_the_tcp_of_a_line() {
+    let steps = run_passing_program(
+        "rdyn-line",
+        r#"
+        [[step]]
+        call = "GroupReset"
+        [[step]]
+        call = "EnableRobot"
+        [[step]]
+        call = "ChangeSpeedOverride"
+        override = 100.0
+        [[step]]
+        call = "MoveAxesAbsolute"
+        joints = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0]
+        [[step]]
+        call = "WriteRobotReferenceDynamics"
+        velocity_reference = 100.0
+        acceleration_reference = -1.0
+        deceleration_reference = -1.0
+        jerk_reference = -1.0
+        [[step]]
+        call = "MoveLinearAbsolute"
+        position = [-417.03, 315.01, 373.15, -180.0, 0.0, 90.0]
+        ori_mode = 1
+        config_mode = [0x11, 0x01]
+        turn_mode = 1
+        [[step]]
+        call = "ReadActualPosition"
+        "#,
+    );
+    let line = &steps[5];
+    let took = line.duration.expect("the line ended").as_secs_f64();
+    assert!(took >= 2.0, "200 mm at 100 mm/s took {took:.3} s");
+    assert!(line.deviation().is_some(), "compared with the pose read");
 }

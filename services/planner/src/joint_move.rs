@@ -112,25 +112,32 @@ pub fn check_limits(
     Ok(())
 }
 
+/// The error of a rate or reference share outside (0, 1].
+type InvalidShare = fn(f64) -> MoveError;
+
 /// Checks the timing parameters of any move: the velocity, acceleration, deceleration and
-/// jerk scales in (0, 1], the duration finite and not negative.
+/// jerk scales and the TCP reference shares in (0, 1], the duration finite and not negative.
 pub fn validate_timing(command: &MotionCommand) -> Result<(), MoveError> {
     let in_unit = |x: f64| x > 0.0 && x <= 1.0;
-    if !in_unit(command.velocity_scale) {
-        return Err(MoveError::InvalidVelocityScale(command.velocity_scale));
-    }
-    if !in_unit(command.acceleration_scale) {
-        return Err(MoveError::InvalidAccelerationScale(
+    let [v, a, d, j] = command.tcp_reference;
+    let shares: [(f64, InvalidShare); 8] = [
+        (command.velocity_scale, MoveError::InvalidVelocityScale),
+        (
             command.acceleration_scale,
-        ));
-    }
-    if !in_unit(command.deceleration_scale) {
-        return Err(MoveError::InvalidDecelerationScale(
+            MoveError::InvalidAccelerationScale,
+        ),
+        (
             command.deceleration_scale,
-        ));
-    }
-    if !in_unit(command.jerk_scale) {
-        return Err(MoveError::InvalidJerkScale(command.jerk_scale));
+            MoveError::InvalidDecelerationScale,
+        ),
+        (command.jerk_scale, MoveError::InvalidJerkScale),
+        (v, MoveError::InvalidVelocityScale),
+        (a, MoveError::InvalidAccelerationScale),
+        (d, MoveError::InvalidDecelerationScale),
+        (j, MoveError::InvalidJerkScale),
+    ];
+    if let Some((share, error)) = shares.into_iter().find(|(x, _)| !in_unit(*x)) {
+        return Err(error(share));
     }
     if !(command.duration_s.is_finite() && command.duration_s >= 0.0) {
         return Err(MoveError::InvalidDuration {

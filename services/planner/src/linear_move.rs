@@ -551,6 +551,14 @@ impl LinearMove {
         reserve: f64,
     ) -> Result<LinearPlan, LinearError> {
         let request = request(command)?;
+        let (command, reference) = referenced(command, arm.tcp);
+        let (command, arm) = (
+            &command,
+            &Arm {
+                tcp: &reference,
+                ..*arm
+            },
+        );
         let tool = pose::isometry(command.tool);
         let tcp = arm.kinematics.flange(&start) * tool;
         let config = arm.geometry.arm_config(&start);
@@ -715,6 +723,27 @@ fn scale_limits(command: &MotionCommand, arm: &Arm<'_>) -> ScaleLimits {
         limits.jerk[i] = command.jerk_scale * arm.joints.jerk[i];
     }
     limits
+}
+
+/// The TCP limits a Cartesian move's rates are shares of, the robot's `tcp` limits times the
+/// PLC's reference dynamics ([`MotionCommand::tcp_reference`]), and the command with its
+/// acceleration and deceleration rates adjusted to them: one TCP acceleration limit serves
+/// both, so where the references differ, the rate of the lower one shrinks by its ratio to
+/// the higher (its joints then speed up or brake by that share less, never faster).
+fn referenced(command: &MotionCommand, tcp: &TcpLimits) -> (MotionCommand, TcpLimits) {
+    let [velocity, acceleration, deceleration, jerk] = command.tcp_reference;
+    let higher = acceleration.max(deceleration);
+    let referenced = MotionCommand {
+        acceleration_scale: command.acceleration_scale * acceleration / higher,
+        deceleration_scale: command.deceleration_scale * deceleration / higher,
+        ..*command
+    };
+    let limits = TcpLimits {
+        velocity: velocity * tcp.velocity,
+        acceleration: higher * tcp.acceleration,
+        jerk: jerk * tcp.jerk,
+    };
+    (referenced, limits)
 }
 
 /// The TCP limits times the command's rates over the path `length` (m), as path limits.
@@ -1361,6 +1390,48 @@ mod tests {
             })
             .fold(0.0, f64::max);
         assert!(peak > 0.3, "{peak}");
+    }
+
+    /// The PLC's reference dynamics set what 100 % of a rate means for the TCP: a velocity
+    /// reference of 4 % (0.1 m/s) at VelocityRate 50 % runs the TCP at 0.05 m/s; an
+    /// acceleration reference of half the deceleration's holds the speed-up to half the
+    /// TCP's limit; a share of 0 is refused as an invalid rate.
+    #[test]
+    fn the_reference_dynamics_set_what_full_rate_means_for_the_tcp() {
+        let mut setup = Setup::new();
+        let start = regular();
+        let mut c = linear_to([0.0; 6]);
+        c.ori_mode = 3;
+        c.pose = moved(&setup, &start, &c, [0.0, 0.0, 0.2], [0.0; 3]);
+        c.velocity_scale = 0.5;
+        c.tcp_reference = [0.04, 1.0, 1.0, 1.0];
+        let m = setup.planned(start, &c);
+        assert!((m.timing().limits.velocity - 0.5 * 0.04 * setup.tcp.velocity / 0.2).abs() < 1e-12);
+        let points = setup.run(&m, start);
+        let fastest = points
+            .windows(2)
+            .map(|w| {
+                let (a, b) = (setup.tcp_of(&w[0].q, &c), setup.tcp_of(&w[1].q, &c));
+                (b.translation.vector - a.translation.vector).norm() / DT
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            fastest <= 0.05 * (1.0 + 1e-6) && fastest > 0.0499,
+            "{fastest} m/s"
+        );
+
+        // A TCP acceleration limit below what the joints allow here.
+        setup.tcp.acceleration = 1.0;
+        c.tcp_reference = [1.0, 0.5, 1.0, 1.0];
+        let m = setup.planned(start, &c);
+        assert_eq!(m.tcp_limits().acceleration, setup.tcp.acceleration);
+        let limits = m.timing().limits;
+        assert!(limits.acceleration <= 0.5 * setup.tcp.acceleration / 0.2 * (1.0 + 1e-12));
+        assert!(limits.deceleration > limits.acceleration, "{limits:?}");
+
+        c.tcp_reference = [0.0, 1.0, 1.0, 1.0];
+        let refused = setup.plan(start, &c).map(|_| ()).map_err(|e| e.code());
+        assert_eq!(refused, Err(code::INVALID_VELOCITY_RATE));
     }
 
     #[test]

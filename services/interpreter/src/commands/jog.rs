@@ -296,6 +296,7 @@ impl Server {
         c.tool = tool;
         c.ori_mode = 1;
         c.velocity_scale = jog.velocity_scale;
+        c.tcp_reference = self.user_data.reference_shares();
         self.submit_jog_move(cmd_id, h, c, now, fx)
     }
 

@@ -162,7 +162,7 @@ fn on_secondary(mode: u8) -> bool {
 }
 
 /// A planner command of `kind` with the rates (those left at default from the default
-/// dynamics), the Time and the PLC's SW limits of the request.
+/// dynamics) of the reference dynamics, the Time and the PLC's SW limits of the request.
 pub(super) fn with_dynamics(
     r: &PayloadReader<'_>,
     layout: &DynamicsLayout,
@@ -187,6 +187,7 @@ pub(super) fn with_dynamics(
         code::INVALID_DECELERATION_RATE,
     )?;
     c.jerk_scale = rate(r.u16(layout.jerk), defaults.jerk, code::INVALID_JERK_RATE)?;
+    c.tcp_reference = data.reference_shares();
     c.duration_s = f64::from(r.u16(layout.time)) / 1000.0;
     let limits = data.sw_limits_rad();
     c.sw_lower_rad = limits.lower;

@@ -420,6 +420,21 @@ impl UserData {
         }
     }
 
+    /// The reference dynamics as shares of the robot's TCP limits (velocity, acceleration,
+    /// deceleration, jerk), each in (0, 1]: what 100 % of a rate means for the TCP.
+    pub fn reference_shares(&self) -> [f64; 4] {
+        let r = self.stored.reference_dynamics.data;
+        let b = &self.bounds;
+        // The stored values are checked against the bounds; f32 rounding aside.
+        let share = |value: f32, max: f64| (f64::from(value) / max).clamp(f64::MIN_POSITIVE, 1.0);
+        [
+            share(r.velocity_mm_s, b.max_velocity_mm_s),
+            share(r.acceleration_mm_s2, b.max_acceleration_mm_s2),
+            share(r.deceleration_mm_s2, b.max_acceleration_mm_s2),
+            share(r.jerk_mm_s3, b.max_jerk_mm_s3),
+        ]
+    }
+
     /// The default dynamics in percent.
     pub fn default_rates(&self) -> DefaultRates {
         let d = self.stored.default_dynamics.data;
