@@ -172,8 +172,12 @@ impl PathLimits {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Timing {
     /// Path limits from the robot's limits and the command's rates: what the move may do in
-    /// total, override changes and stops included.
+    /// total, override changes included.
     pub limits: PathLimits,
+    /// Path limits from the robot's limits alone (the rates at 100 %): what a stop on the
+    /// path of a profile on constant bounds brakes within, as fast as the limits allow
+    /// whatever the command's rates.
+    pub stop: PathLimits,
     /// The profile, planned with the acceleration reserve held back for override changes.
     pub profile: Profile,
     /// Largest rate of change of the override (1/s) the reserve pays for.
@@ -197,11 +201,17 @@ impl Timing {
     /// does too, most of all on moves that peak below the speed limit.
     pub fn plan(
         limits: PathLimits,
+        stop: PathLimits,
         reserve: f64,
         command: &MotionCommand,
     ) -> Result<Self, MoveError> {
         let (fastest, override_rate) = Self::fastest_profile(limits, reserve);
-        Self::with_profile(limits, Profile::DoubleS(fastest), override_rate, command)
+        Self::with_profile(
+            [limits, stop],
+            Profile::DoubleS(fastest),
+            override_rate,
+            command,
+        )
     }
 
     /// The fastest double-S within `limits` that leaves room for override changes at the
@@ -272,10 +282,11 @@ impl Timing {
     }
 
     /// The timing of `command` on the fastest profile `fastest` (planned within `limits`
-    /// with the reserve that pays for `override_rate`), stretched to the command's duration
-    /// if that is positive; a requested duration shorter than the profile is an error.
+    /// with the reserve that pays for `override_rate`; a stop brakes within `stop`),
+    /// stretched to the command's duration if that is positive; a requested duration
+    /// shorter than the profile is an error.
     pub fn with_profile(
-        limits: PathLimits,
+        [limits, stop]: [PathLimits; 2],
         fastest: Profile,
         override_rate: f64,
         command: &MotionCommand,
@@ -293,6 +304,7 @@ impl Timing {
         };
         Ok(Self {
             limits,
+            stop,
             profile,
             override_rate,
             jerk_rate: command.jerk_scale,
@@ -355,11 +367,17 @@ impl JointMove {
             deceleration: path(&limits.acceleration, command.deceleration_scale),
             jerk: path(&limits.jerk, command.jerk_scale),
         };
+        let stop = PathLimits {
+            acceleration: path(&limits.acceleration, 1.0),
+            deceleration: path(&limits.acceleration, 1.0),
+            jerk: path(&limits.jerk, 1.0),
+            ..path_limits
+        };
         Ok(Plan::Move(Self {
             start,
             target,
             delta,
-            timing: Timing::plan(path_limits, reserve, command)?,
+            timing: Timing::plan(path_limits, stop, reserve, command)?,
         }))
     }
 
@@ -504,7 +522,7 @@ mod tests {
         ) {
             let limits = PathLimits { velocity, acceleration, deceleration, jerk };
             let (profile, override_rate) = Timing::fastest_profile(limits, reserve);
-            let timing = Timing { limits, profile: Profile::DoubleS(profile), override_rate, jerk_rate: 1.0 };
+            let timing = Timing { limits, stop: limits, profile: Profile::DoubleS(profile), override_rate, jerk_rate: 1.0 };
             prop_assert!(override_room_used(&timing) <= 1.0 + 1e-9);
             let kept = 1.0 - reserve;
             let whole = DoubleS::new(velocity, kept * acceleration, kept * deceleration, jerk);

@@ -39,7 +39,8 @@
 //!    fastest table is taken; progress, remaining distance and the acceleration bits are
 //!    reported along the TCP's path either way.
 //! 2. **Constant bounds**: one double-S profile on `s` with the tightest of
-//!    - the TCP limits of the robot (`cartesian` section) times the command's rates, divided
+//!    - the TCP limits of the robot (`cartesian` section, times the PLC's reference dynamics)
+//!      times the command's rates, divided
 //!      by the length of the path (the orientation has no Cartesian limit of its own: the
 //!      joint limits bound it);
 //!    - the joint limits along the path, from the largest magnitude of each derivative per
@@ -59,9 +60,11 @@
 //! `|q̇_i| ≤ v_i`, `|q̈_i| ≤ a_i` and `|q⃛_i| ≤ j_i` along the path (the table within its grid
 //! margin, see [`topp`]).
 //!
-//! **Stops and override.** A stop on the double-S brakes `s` with its constant bounds
-//! ([`Timing::limits`]). A stop on the table brakes the table's time scale within the joint
-//! and TCP limits at the current point ([`scale_brake`](crate::scale_brake)): it never goes
+//! **Stops and override.** A stop brakes as fast as the limits allow, whatever the
+//! command's rates. On the double-S it brakes `s` with the constant bounds of the same speed
+//! and split at 100 % rates ([`Timing::stop`]). On the table it brakes the table's time
+//! scale within the joint and TCP limits at the current point
+//! ([`scale_brake`](crate::scale_brake)): it never goes
 //! faster than the table anywhere on the path, so it always ends on the path, at the latest
 //! where the table itself comes to rest. The table's speed is capped where constant stop
 //! bounds would stop to exist (`V_stop = min_i min(√(CURVATURE_SHARE·a_i/|q''_i|),
@@ -584,7 +587,7 @@ impl LinearMove {
             }
         }
         let limits = path_limits(command, &survey, path.length(), arm, reserve);
-        if !limits.velocity.is_finite() {
+        if !limits[0].velocity.is_finite() {
             // A reorientation too small to move any joint measurably.
             return Ok(LinearPlan::Stationary(start));
         }
@@ -594,7 +597,7 @@ impl LinearMove {
             target: survey.end,
             timing,
             warp,
-            scale_limits: scale_limits(command, arm),
+            scale_limits: scale_limits(arm),
             tcp_limits: TcpLimits {
                 velocity: command.velocity_scale * arm.tcp.velocity,
                 acceleration: command.acceleration_scale.max(command.deceleration_scale)
@@ -615,8 +618,9 @@ impl LinearMove {
     }
 
     /// The joint and TCP limits of a stop on the time scale of the move's table: the robot's
-    /// acceleration and jerk limits times the command's rates, without the override reserve
-    /// (what the reserve holds back is there for the stop).
+    /// acceleration and jerk limits (the TCP's of the reference dynamics), whatever the
+    /// command's rates, and without the override reserve (what the reserve holds back is
+    /// there for the stop).
     pub fn scale_limits(&self) -> &ScaleLimits {
         &self.scale_limits
     }
@@ -686,41 +690,53 @@ impl LinearMove {
 
 /// The path limits of a surveyed line of `length` m (see the module documentation): of the
 /// candidates on a grid of path speeds and of splits of the jerk budget, the one with the
-/// shortest profile.
+/// shortest profile; and at its speed and split, the limits of a stop (the rates at 100 %).
 fn path_limits(
     command: &MotionCommand,
     survey: &Survey,
     length: f64,
     arm: &Arm<'_>,
     reserve: f64,
-) -> PathLimits {
+) -> [PathLimits; 2] {
     let cartesian = cartesian_limits(command, length, arm.tcp);
     let bounds = JointBounds::new(survey, arm.joints);
     let fastest = bounds.fastest(command, cartesian.velocity);
-    let mut best: Option<(f64, PathLimits)> = None;
+    let mut best: Option<(f64, PathLimits, f64)> = None;
     for step in 1..=SPEED_STEPS {
         let velocity = fastest * step as f64 / SPEED_STEPS as f64;
         for split in JERK_SPLITS {
             let limits = bounds.at(command, &cartesian, velocity, split);
             let duration = Timing::fastest_profile(limits, reserve).0.duration();
-            if best.is_none_or(|(shortest, _)| duration < shortest) {
-                best = Some((duration, limits));
+            if best.is_none_or(|(shortest, _, _)| duration < shortest) {
+                best = Some((duration, limits, split));
             }
         }
     }
-    best.map_or(cartesian, |(_, limits)| limits)
+    let full = MotionCommand {
+        acceleration_scale: 1.0,
+        deceleration_scale: 1.0,
+        jerk_scale: 1.0,
+        ..*command
+    };
+    let full_cartesian = cartesian_limits(&full, length, arm.tcp);
+    best.map_or([cartesian, full_cartesian], |(_, limits, split)| {
+        [
+            limits,
+            bounds.at(&full, &full_cartesian, limits.velocity, split),
+        ]
+    })
 }
 
-/// The joints' and the TCP's acceleration and jerk limits times the command's rates.
-fn scale_limits(command: &MotionCommand, arm: &Arm<'_>) -> ScaleLimits {
-    let rate = command.acceleration_scale.max(command.deceleration_scale);
+/// The joints' and the TCP's acceleration and jerk limits: what a stop on the time scale of
+/// a table keeps, as fast as the limits allow whatever the command's rates.
+fn scale_limits(arm: &Arm<'_>) -> ScaleLimits {
     let mut limits = ScaleLimits {
-        acceleration: [rate * arm.tcp.acceleration; COORDINATES],
-        jerk: [command.jerk_scale * arm.tcp.jerk; COORDINATES],
+        acceleration: [arm.tcp.acceleration; COORDINATES],
+        jerk: [arm.tcp.jerk; COORDINATES],
     };
     for i in 0..AXES {
-        limits.acceleration[i] = rate * arm.joints.acceleration[i];
-        limits.jerk[i] = command.jerk_scale * arm.joints.jerk[i];
+        limits.acceleration[i] = arm.joints.acceleration[i];
+        limits.jerk[i] = arm.joints.jerk[i];
     }
     limits
 }
@@ -774,11 +790,11 @@ fn timing(
     line: &Line,
     survey: &Survey,
     samples: &PathSamples,
-    limits: PathLimits,
+    limits: [PathLimits; 2],
     arm: &Arm<'_>,
     reserve: f64,
 ) -> Result<(Timing, Option<PathWarp>), LinearError> {
-    let (fastest_constant, constant_rate) = Timing::fastest_profile(limits, reserve);
+    let (fastest_constant, constant_rate) = Timing::fastest_profile(limits[0], reserve);
     let constant = Timing::with_profile(
         limits,
         Profile::DoubleS(fastest_constant),

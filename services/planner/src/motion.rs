@@ -205,7 +205,7 @@ impl Stop {
         // Same (s, ṡ, s̈) as the point last commanded, so the stop is continuous.
         let state = scaled(plan, tau, scale);
         let (Profile::Table(table), Path::Linear(m)) = (&timing.profile, plan) else {
-            let limits = timing.limits;
+            let limits = timing.stop;
             let (s, sd, sdd) = state;
             return Self::Path(PathBrake::new(s, sd, sdd, limits.braking(), limits.jerk));
         };
@@ -530,18 +530,18 @@ pub struct Dynamics {
 /// in the positions' third differences).
 pub const OVERRIDE_JERK_SHARE: f64 = 0.5;
 /// The same share for a stop during a blend, which brings σ to 0 at the blend's stop rate:
-/// the whole jerk limit, so that it stops about as fast as a stop on a single move (from
-/// full speed on the JAKA Zu 7 at JerkRate 100 %, computed: at most `2·√(1/σ̈)` = 0.63 s
-/// instead of 0.89 s with the override's share, longer by `1/√JerkRate` at a lower
-/// JerkRate; with a step of σ̇ it took the joints' acceleration to its limit in one tick).
+/// the whole jerk limit, whatever the moves' JerkRates, so that it stops about as fast as a
+/// stop on a single move (from full speed on the JAKA Zu 7, computed: at most `2·√(1/σ̈)`
+/// = 0.63 s instead of 0.89 s with the override's share; with a step of σ̇ it took the
+/// joints' acceleration to its limit in one tick).
 pub const BLEND_STOP_JERK_SHARE: f64 = 1.0;
 
 impl Dynamics {
     /// Largest `|σ̈|` (1/s²) of a ramp of the time scale for which `|σ̈·q̇ₜ|` stays within
     /// `share` of every joint's and the TCP's jerk limit: no coordinate moves faster than
-    /// its velocity limit. [`OVERRIDE_JERK_SHARE`] for override changes,
-    /// [`BLEND_STOP_JERK_SHARE`] for a stop during a blend, each times the moves' JerkRate
-    /// ([`Timing::jerk_rate`]; the lower of a blend's two).
+    /// its velocity limit. [`OVERRIDE_JERK_SHARE`] times the moves' JerkRate
+    /// ([`Timing::jerk_rate`]; the lower of a blend's two) for override changes,
+    /// [`BLEND_STOP_JERK_SHARE`] for a stop during a blend.
     pub fn scale_acceleration(&self, share: f64) -> f64 {
         let (l, tcp) = (&self.limits, &self.tcp);
         let slowest = (0..AXES).fold(tcp.jerk / tcp.velocity, |r, i| {
@@ -742,17 +742,17 @@ impl Motion {
             Phase::Running(running) => self.run(running, &mut tick, report),
             Phase::Blending(mut blend) => {
                 let (incoming, outgoing) = (blend.plan.timing(), blend.outgoing.timing());
-                let jerk_rate = incoming.jerk_rate.min(outgoing.jerk_rate);
+                // A stop brakes as fast as the limits allow, whatever the JerkRates.
                 let (target, rate, share) = if blend.braking {
                     (0.0, blend.overlap.stop_rate, BLEND_STOP_JERK_SHARE)
                 } else {
                     (
                         override_target.min(blend.ceiling),
                         blend.overlap.override_rate,
-                        OVERRIDE_JERK_SHARE,
+                        OVERRIDE_JERK_SHARE * incoming.jerk_rate.min(outgoing.jerk_rate),
                     )
                 };
-                let acceleration = dynamics.scale_acceleration(share * jerk_rate);
+                let acceleration = dynamics.scale_acceleration(share);
                 let step = self.scale.ramp(target, rate, acceleration, dt);
                 blend.tau += step;
                 blend.outgoing_tau += step;

@@ -458,6 +458,47 @@ fn stop_brakes_on_the_path_within_the_limits_and_aborts_everything() {
     assert_eq!(rig.feedback.q, stood);
 }
 
+/// GroupStop brakes as fast as the limits allow, whatever the move's rates: a joint move
+/// cruising at 30 % of the joint speed and a line at 5 % of the TCP's, with
+/// AccelerationRate, DecelerationRate and JerkRate at 10 %, stand as soon as at 100 %,
+/// within the limits (they braked at their own rates: the joint move took 950 ticks
+/// against 245).
+#[test]
+fn a_stop_brakes_as_fast_as_the_limits_allow_whatever_the_rates() {
+    let stop_ticks = |rate: f64, line: bool| {
+        let mut rig = Rig::new();
+        let mut c = if line {
+            let mut c = rig.line_by(1, SHIFT, [0.0; 3]);
+            c.velocity_scale = 0.05;
+            c
+        } else {
+            let mut target = home();
+            target[0] += 2.5;
+            let mut c = rig.move_to(1, target);
+            c.velocity_scale = 0.3;
+            c
+        };
+        (c.acceleration_scale, c.deceleration_scale, c.jerk_scale) = (rate, rate, rate);
+        rig.step(&[c]);
+        // Halfway: cruising.
+        rig.run_until(20_000, |r| r.executor.status().active_progress > 50.0);
+        let stop = rig.command(MotionCommandKind::Stop, 2);
+        let from = rig.trace.len();
+        rig.step(&[stop]);
+        rig.run_until(10_000, |r| r.is_final(2));
+        rig.check_limits();
+        assert_jerk_within_limits(&rig.trace, &rig.limits, DT);
+        rig.trace.len() - from
+    };
+    for line in [false, true] {
+        let (gentle, full) = (stop_ticks(0.1, line), stop_ticks(1.0, line));
+        assert!(
+            gentle <= full + 1,
+            "line {line}: {gentle} ticks at 10 %, {full} at 100 %"
+        );
+    }
+}
+
 #[test]
 fn interrupt_stops_on_the_path_and_continue_finishes_the_same_moves() {
     let mut rig = Rig::new();
