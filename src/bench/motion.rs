@@ -193,6 +193,11 @@ fn timing_rows(t: &Timings, stops: &Stops) -> Vec<TimingRow> {
             &t.conic,
         ),
         measured(
+            "guard-stop step of the safety filter (SafetyFilter::brake)",
+            true,
+            &t.guard_step,
+        ),
+        measured(
             "GroupStop of a MoveLinear on its table (Stop::of)",
             true,
             &stops.decision,
@@ -400,6 +405,11 @@ fn notes(results: &MotionResults, options: &Options) -> Vec<String> {
              time",
             timing::PLAN_REPEATS
         ),
+        "guard-stop step: one tick (1 ms) of the safety filter's stop from each of the random \
+         joint vectors at random speeds of up to 80 % of every joint's limit: its QP solved \
+         (a state beyond saving brakes at the limits without it); a guard stop solves about \
+         one step a tick, the rest of its setpoint window is remembered"
+            .to_string(),
         format!(
             "problems: joint moves from a point within the joint limits a log-uniform 1-100 % \
              of the way to another; lines of 1-60 cm in a random direction with a turn of up \

@@ -1,14 +1,16 @@
 //! Clock measurements of `rc bench motion`: inverse and forward kinematics per solve, and
 //! planning per move, each call timed on its own (`Instant`, whose own cost of some tens of
 //! ns is included), plus the solve rate of a loop timed as a whole; and the path timers'
-//! own solve times, counted only for the plans that called them.
+//! own solve times, counted only for the plans that called them; and a step of the safety
+//! filter's guard stop.
 
 use std::hint::black_box;
 use std::time::Instant;
 
 use planner::linear_move::LinearMove;
+use planner::safety_filter::SafetyFilter;
 use planner::topp::PathTimer;
-use shared_types::ipc::{AXES, MotionCommand};
+use shared_types::ipc::{AXES, JointPoint, MotionCommand};
 
 use super::problems::{JointCase, LinearCase, Problems, Rng, Robot};
 use crate::bench::elapsed_ns;
@@ -18,6 +20,8 @@ use crate::bench::stats::Distribution;
 pub const KINEMATICS_PER_PROBLEM: usize = 50;
 /// Times every problem is planned.
 pub const PLAN_REPEATS: usize = 5;
+/// The tick (s) of the timed guard-stop steps.
+const GUARD_TICK_S: f64 = 1e-3;
 
 /// One kind of call: the time of each, and the rate of a loop of all of them.
 #[derive(Debug, Clone)]
@@ -46,6 +50,9 @@ pub struct Timings {
     /// The conic problem's solve of every linear move (velocity and acceleration only) whose
     /// plan called it, as clarabel measured it when the problem set was planned.
     pub conic: CallTimes,
+    /// A step of a guard stop of the safety filter from a new state (its QP solved, unless
+    /// the state is beyond saving and brakes at the limits).
+    pub guard_step: CallTimes,
 }
 
 impl CallTimes {
@@ -105,6 +112,18 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
     let ik_all = time_calls(&flanges, |(f, _, q6)| geometry.inverse(f, *q6));
     let ik_one = time_calls(&flanges, |(f, c, q6)| geometry.inverse_in(f, *c, *q6));
     let fk = time_calls(&joints, |q| robot.kinematics.flange(q));
+    let moving: Vec<_> = joints
+        .iter()
+        .map(|q| JointPoint {
+            q: *q,
+            qd: core::array::from_fn(|i| rng.uniform(-0.8, 0.8) * robot.limits.velocity[i]),
+            ..JointPoint::default()
+        })
+        .collect();
+    let mut guard = SafetyFilter::new(robot.limits).expect("the filter's fixed problem");
+    let guard_step = time_calls(&moving, |p| {
+        guard.brake(p, GUARD_TICK_S, |q| robot.kinematics.jacobian(q))
+    });
 
     let joint_commands = repeated(&problems.joint, |c| (c.start, JointCase::command(c.target)));
     let plan_joint = time_calls(&joint_commands, |(start, command)| {
@@ -129,6 +148,7 @@ pub fn measure(robot: &Robot, problems: &Problems, seed: u64, count: usize) -> T
         plan_linear_tick,
         topp,
         conic,
+        guard_step,
     }
 }
 
