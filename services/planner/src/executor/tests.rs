@@ -2900,13 +2900,23 @@ mod blending {
             Joint([f64; AXES]),
             /// A line of the TCP to home's shifted by this much (m).
             Line([f64; 3]),
+            /// An arc of the TCP through home's shifted by the first shift (m) to home's
+            /// shifted by the second.
+            Arc([f64; 3], [f64; 3]),
         }
 
         fn leg() -> impl Strategy<Value = Leg> {
+            let shift = || prop::array::uniform3(-0.12f64..0.12);
             prop_oneof![
                 prop::array::uniform6(-0.6f64..0.6).prop_map(Leg::Joint),
-                prop::array::uniform3(-0.12f64..0.12).prop_map(Leg::Line),
+                shift().prop_map(Leg::Line),
+                (shift(), shift()).prop_map(|(via, end)| Leg::Arc(via, end)),
             ]
+        }
+
+        /// VelocityRate, AccelerationRate, DecelerationRate and JerkRate.
+        fn rates() -> impl Strategy<Value = [f64; 4]> {
+            prop::array::uniform4(0.2f64..=1.0)
         }
 
         fn blending() -> impl Strategy<Value = (u8, [f64; 2])> {
@@ -2924,31 +2934,51 @@ mod blending {
         proptest! {
             #![proptest_config(ProptestConfig::with_cases(16))]
 
-            /// Joint and linear moves blended by any mode, under any override: no tick
-            /// leaves a joint position, velocity or acceleration limit, nor the jerk limit
-            /// by more than two moves' jerks (where an overlap had no time to slow down)
-            /// and an override ramp add, and every move that was buffered ends DONE.
+            /// Joint moves, lines and arcs at any rates, blended by any mode, under any
+            /// override and within SW limits 0.3 to 1.2 rad either side of home: no tick
+            /// leaves a SW limit or a joint velocity or acceleration limit, nor the jerk
+            /// limit by more than two moves' jerks (where an overlap had no time to slow
+            /// down) and an override ramp add, and every move that was buffered ends DONE
+            /// or is refused before it moves.
             #[test]
             fn random_blended_sequences_keep_the_joint_limits(
-                legs in prop::collection::vec((leg(), blending()), 2..6),
+                legs in prop::collection::vec((leg(), blending(), rates()), 2..6),
+                sw_limits in prop::array::uniform6(0.3f64..1.2),
                 first_override in 0.3f64..=1.0,
                 change in (0usize..3000, 0.0f64..=1.0),
             ) {
                 let mut rig = Rig::new();
                 rig.set_override(100, first_override);
                 let base = home();
+                let (lower, upper) = (
+                    shifted_joints(base, sw_limits.map(|w| -w)),
+                    shifted_joints(base, sw_limits),
+                );
                 let mut commands = Vec::new();
-                for (k, (leg, (mode, parameter))) in legs.iter().enumerate() {
+                for (k, (leg, (mode, parameter), rates)) in legs.iter().enumerate() {
                     let job = k as u32 + 1;
-                    let c = match leg {
+                    let cartesian = |rig: &mut Rig, kind| {
+                        let mut c = rig.command(kind, job);
+                        c.tool = tool();
+                        c
+                    };
+                    let mut c = match leg {
                         Leg::Joint(offset) => rig.move_to(job, shifted_joints(base, *offset)),
                         Leg::Line(shift) => {
-                            let mut c = rig.command(MotionCommandKind::MoveLinear, job);
-                            c.tool = tool();
+                            let mut c = cartesian(&mut rig, MotionCommandKind::MoveLinear);
                             c.pose = shifted(&tcp_of(&base), *shift, [0.0; 3]);
                             c
                         }
+                        Leg::Arc(via, end) => {
+                            let mut c = cartesian(&mut rig, MotionCommandKind::MoveCircular);
+                            c.aux_pose = shifted(&tcp_of(&base), *via, [0.0; 3]);
+                            c.pose = shifted(&tcp_of(&base), *end, [0.0; 3]);
+                            c
+                        }
                     };
+                    [c.velocity_scale, c.acceleration_scale, c.deceleration_scale, c.jerk_scale] =
+                        *rates;
+                    (c.sw_lower_rad, c.sw_upper_rad) = (lower, upper);
                     commands.push(with_blending(c, *mode, *parameter));
                 }
                 rig.step(&commands);
@@ -2971,6 +3001,14 @@ mod blending {
                     prop_assert!(refused || rig.final_state(job) == Some((state::DONE, 0)));
                 }
                 rig.check_limits();
+                for p in &rig.trace {
+                    for i in 0..AXES {
+                        prop_assert!(
+                            p.q[i] >= lower[i] - 1e-9 && p.q[i] <= upper[i] + 1e-9,
+                            "joint {} at {} outside its SW limits", i, p.q[i]
+                        );
+                    }
+                }
                 let within = 2.0 + crate::motion::OVERRIDE_JERK_SHARE;
                 assert_jerk_within(&rig.trace, &rig.limits, DT, within);
             }
