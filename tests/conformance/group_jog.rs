@@ -311,3 +311,43 @@ fn frame_and_tool_jogging_move_the_tcp_along_their_axes() {
     let s = run_until_state(&mut plc, h, state::DONE, Duration::from_secs(3));
     assert_eq!(s.state, state::DONE);
 }
+
+/// A continuous joint jog stops at the SW limit, half a degree inside it: the GroupJog stays
+/// ACTIVE and says why the arm stopped with 0x6C04 (SW limit reached), MotionActive cleared.
+/// (It said nothing: code 0, as if the key had been released.)
+#[test]
+fn a_joint_jog_at_the_sw_limit_reports_it() {
+    use super::sw_limits::{MECHANICAL_LOWER, MECHANICAL_UPPER};
+    use crate::common::{enabled, expect_done};
+    use plc_client::{SwLimits, Timestamp};
+    let (_c, mut plc) = enabled("joglimit");
+    let mut narrow = SwLimits {
+        timestamp: Timestamp::default(),
+        lower_deg: MECHANICAL_LOWER,
+        upper_deg: MECHANICAL_UPPER,
+    };
+    narrow.upper_deg[0] = 5.0;
+    expect_done(
+        &mut plc,
+        &Request::write_sw_limits(&narrow, false),
+        shared_types::srci::tables::write_robot_sw_limits::response::LEN,
+    );
+    let h = plc
+        .task_mut()
+        .submit(&GroupJog::axes(50.0).pressing(0, 1).request())
+        .expect("submit");
+    plc.run_until(
+        |t| t.status(h).is_some_and(|s| s.code != 0 || s.is_final()),
+        Duration::from_secs(5),
+    )
+    .expect("the jog ends at the limit");
+    let s = plc.task().status(h).cloned().expect("status");
+    assert_eq!(
+        (s.state, s.code),
+        (state::ACTIVE, code::SW_LIMIT_REACHED),
+        "{s:?}"
+    );
+    assert!(!JogStatus::decode(&s.response).motion_active);
+    let j1 = actual_joints(&mut plc)[0];
+    assert!((j1 - 4.5).abs() < 0.01, "J1 at {j1}");
+}

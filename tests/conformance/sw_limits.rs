@@ -13,8 +13,8 @@ use crate::common::{
     Edit, actual_joints, cycles_until, enabled, expect_done, expect_error, run_until_state,
 };
 
-const MECHANICAL_LOWER: [f32; 6] = [-359.0, -84.0, -174.0, -84.0, -359.0, -359.0];
-const MECHANICAL_UPPER: [f32; 6] = [359.0, 264.0, 174.0, 264.0, 359.0, 359.0];
+pub(crate) const MECHANICAL_LOWER: [f32; 6] = [-359.0, -84.0, -174.0, -84.0, -359.0, -359.0];
+pub(crate) const MECHANICAL_UPPER: [f32; 6] = [359.0, 264.0, 174.0, 264.0, 359.0, 359.0];
 
 #[test]
 fn sw_limits_narrow_moves_and_jogs_and_reset_to_factory() {

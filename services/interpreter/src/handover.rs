@@ -28,7 +28,7 @@ use crate::sync::{SyncRequest, SyncSupervisor};
 /// File name of the snapshot in the data directory.
 pub const FILE_NAME: &str = "interpreter.handover";
 /// Version of the snapshot layout; another version is not taken.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// A snapshot older than this (ms, CLOCK_MONOTONIC) is stale: its PLC has given up.
 pub const MAX_AGE_MS: u64 = 5000;
 

@@ -121,6 +121,18 @@ pub(crate) fn decode_jog(msg: &[u8]) -> Result<JogRequest, u16> {
     })
 }
 
+/// What ends a jog motion by itself, and what its GroupJog reports when it does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum JogEnd {
+    /// A continuous frame or tool jog's step: ends quietly (the keys are still pressed).
+    Step,
+    /// An incremental jog's distance: DistanceReached.
+    Distance,
+    /// A joint jog at the SW limit (continuous, or an increment the limit cuts short):
+    /// 0x6C04, SW limit reached.
+    SwLimit,
+}
+
 impl JogRequest {
     fn moves(&self) -> bool {
         self.enable && self.velocity_scale > 0.0 && self.directions.iter().any(|d| *d != 0)
@@ -155,9 +167,10 @@ impl JogRequest {
         })
     }
 
-    /// The joint target of this jog from `q` within `[min, max]`.
-    fn target(&self, q: [f64; AXES], min: [f64; AXES], max: [f64; AXES]) -> [f64; AXES] {
-        core::array::from_fn(|i| {
+    /// The joint target of this jog from `q` within `[min, max]`, and what ends it there.
+    fn target(&self, q: [f64; AXES], min: [f64; AXES], max: [f64; AXES]) -> ([f64; AXES], JogEnd) {
+        let mut end = JogEnd::Distance;
+        let target = core::array::from_fn(|i| {
             let (lo, hi) = (min[i] + LIMIT_MARGIN, max[i] - LIMIT_MARGIN);
             let goal = match self.directions[i] {
                 0 => return q[i],
@@ -165,8 +178,22 @@ impl JogRequest {
                 1 => hi,
                 _ => lo,
             };
-            goal.clamp(lo.min(q[i]), hi.max(q[i]))
-        })
+            let kept = goal.clamp(lo.min(q[i]), hi.max(q[i]));
+            if self.increment <= 0.0 || kept != goal {
+                end = JogEnd::SwLimit;
+            }
+            kept
+        });
+        (target, end)
+    }
+
+    /// What ends a frame or tool jog by itself.
+    fn cartesian_end(&self) -> JogEnd {
+        if self.incremental() {
+            JogEnd::Distance
+        } else {
+            JogEnd::Step
+        }
     }
 }
 
@@ -184,7 +211,7 @@ impl Server {
             h,
             LiveKind::Jog {
                 job: 0,
-                incremental: false,
+                end: JogEnd::Step,
                 cartesian: None,
             },
         );
@@ -229,14 +256,16 @@ impl Server {
             return;
         }
         let cartesian = request.cartesian();
-        let mut job = 0;
+        let (mut job, mut end) = (0, request.cartesian_end());
         if request.moves() {
             let submitted = match cartesian {
-                Some(jog) => self.submit_cartesian_jog(cmd_id, h, &jog, now, fx),
+                Some(jog) => self
+                    .submit_cartesian_jog(cmd_id, h, &jog, now, fx)
+                    .map(|job| (job, end)),
                 None => self.submit_joint_jog(cmd_id, h, &request, now, fx),
             };
             match submitted {
-                Ok(j) => job = j,
+                Ok(started) => (job, end) = started,
                 Err(c) => return self.respond(cmd_id, h, state::ERROR, c, now, |_| {}),
             }
             // Jogging away from held primary moves is an excursion: they continue only from
@@ -250,7 +279,7 @@ impl Server {
         }
         self.live[i].kind = LiveKind::Jog {
             job,
-            incremental: request.incremental(),
+            end,
             cartesian,
         };
         self.respond(cmd_id, h, state::ACTIVE, 0, now, |b| {
@@ -260,7 +289,7 @@ impl Server {
         });
     }
 
-    /// A joint jog move; returns its job or the code that refuses it.
+    /// A joint jog move; returns its job and what ends it, or the code that refuses it.
     fn submit_joint_jog(
         &mut self,
         cmd_id: u16,
@@ -268,13 +297,14 @@ impl Server {
         request: &JogRequest,
         now: Now,
         fx: &mut Effects,
-    ) -> Result<u32, u16> {
+    ) -> Result<(u32, JogEnd), u16> {
         let status = self.status.ok_or(code::INTERNAL_ERROR)?;
         let limits = self.user_data.sw_limits_rad();
         let mut c = MotionCommand::new(MotionCommandKind::MoveAxes);
-        c.joints_rad = request.target(status.joints_rad, limits.lower, limits.upper);
+        let (target, end) = request.target(status.joints_rad, limits.lower, limits.upper);
+        c.joints_rad = target;
         c.velocity_scale = request.velocity_scale;
-        self.submit_jog_move(cmd_id, h, c, now, fx)
+        Ok((self.submit_jog_move(cmd_id, h, c, now, fx)?, end))
     }
 
     /// A frame or tool jog step: a straight TCP line from where the TCP is; returns its job
@@ -373,7 +403,7 @@ impl Server {
     pub(crate) fn on_jog_update(&mut self, i: usize, u: JobUpdate, now: Now, fx: &mut Effects) {
         let LiveKind::Jog {
             job,
-            incremental,
+            end,
             cartesian,
         } = self.live[i].kind
         else {
@@ -403,7 +433,7 @@ impl Server {
             };
             self.live[i].kind = LiveKind::Jog {
                 job,
-                incremental,
+                end,
                 cartesian: Some(shorter),
             };
             return;
@@ -416,12 +446,18 @@ impl Server {
         if !active {
             self.live[i].kind = LiveKind::Jog {
                 job: 0,
-                incremental,
+                end,
                 cartesian,
             };
         }
-        let reached = incremental && u.state == state::DONE;
-        self.respond(u.cmd_id, h, state::ACTIVE, 0, now, |b| {
+        let done = u.state == state::DONE;
+        let reached = done && end == JogEnd::Distance;
+        let code = if done && end == JogEnd::SwLimit {
+            code::SW_LIMIT_REACHED
+        } else {
+            0
+        };
+        self.respond(u.cmd_id, h, state::ACTIVE, code, now, |b| {
             let mut w = PayloadWriter::new(b);
             w.set_bit(gj::response::ENABLED, true);
             w.set_bit(gj::response::MOTION_ACTIVE, active);
@@ -510,13 +546,17 @@ mod tests {
         let max = [1.0; AXES];
         let q = [0.0, 0.2, 0.0, 0.0, 0.0, 0.0];
         let mut r = decode_jog(&request(|w| w.set_bit(gj::request::Y_J2_POS, true))).unwrap();
-        let t = r.target(q, min, max);
+        let (t, end) = r.target(q, min, max);
         assert!((t[1] - (1.0 - LIMIT_MARGIN)).abs() < 1e-12);
-        assert_eq!(t[0], 0.0);
+        assert_eq!((t[0], end), (0.0, JogEnd::SwLimit));
         r.increment = 0.1;
-        assert!((r.target(q, min, max)[1] - 0.3).abs() < 1e-12);
-        // Never beyond the limit margin, even in increments.
+        let (t, end) = r.target(q, min, max);
+        assert!((t[1] - 0.3).abs() < 1e-12);
+        assert_eq!(end, JogEnd::Distance);
+        // Never beyond the limit margin, even in increments: the limit ends it.
         r.increment = 5.0;
-        assert!((r.target(q, min, max)[1] - (1.0 - LIMIT_MARGIN)).abs() < 1e-12);
+        let (t, end) = r.target(q, min, max);
+        assert!((t[1] - (1.0 - LIMIT_MARGIN)).abs() < 1e-12);
+        assert_eq!(end, JogEnd::SwLimit);
     }
 }

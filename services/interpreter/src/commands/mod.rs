@@ -109,7 +109,7 @@ pub enum LiveKind {
     /// frame and tool jogging the step it takes.
     Jog {
         job: u32,
-        incremental: bool,
+        end: jog::JogEnd,
         cartesian: Option<jog::CartesianJog>,
     },
     /// A read executed continuously (ExecutionMode CONTINUOUS): answered ACTIVE again every
