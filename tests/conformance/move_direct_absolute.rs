@@ -45,13 +45,13 @@ fn taught_pose_is_reached_in_its_configuration() {
         .task_mut()
         .submit(&MoveDirectAbsolute::to(pose, config, turns).request())
         .expect("submit");
-    let mut active_remaining = None;
+    let mut active_remaining = Vec::new();
     plc.run_until(
         |t| {
             let s = t.status(h).expect("status");
             if s.state == state::ACTIVE && s.responses > 0 {
-                active_remaining =
-                    Some(CartesianMoveProgress::decode(&s.response).remaining_distance);
+                active_remaining
+                    .push(CartesianMoveProgress::decode(&s.response).remaining_distance);
             }
             s.is_final()
         },
@@ -64,10 +64,22 @@ fn taught_pose_is_reached_in_its_configuration() {
     let done = CartesianMoveProgress::decode(&s.response);
     assert_eq!(done.progress_percent, Some(100.0));
     assert_eq!(done.remaining_distance, 0.0, "0: target reached");
-    assert_eq!(
-        active_remaining,
-        Some(-1.0),
-        "-1: no valid value while a joint move runs"
+    // Once it moves (-1, no valid value, before): the TCP's path left, shrinking, at first
+    // at least the straight distance (it stayed -1 while joint moves ran).
+    let straight = (0..3)
+        .map(|i| (pose[i] - home_pose[i]).powi(2))
+        .sum::<f64>()
+        .sqrt() as f32;
+    let moving: Vec<f32> = active_remaining
+        .iter()
+        .copied()
+        .skip_while(|d| *d == -1.0)
+        .collect();
+    assert!(
+        moving.first().is_some_and(|&d| d >= straight)
+            && moving.windows(2).all(|w| w[1] <= w[0])
+            && moving.iter().all(|&d| d >= 0.0),
+        "{active_remaining:?}, straight {straight} mm"
     );
     assert!(max_deviation(actual_joints(&mut plc), taught) < 0.01);
 

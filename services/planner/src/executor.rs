@@ -29,6 +29,7 @@ use shared_types::srci::message::{code, state};
 use crate::blend::{self, BlendRequest, Blending, PathLeg};
 use crate::cartesian_path;
 use crate::events::EventLog;
+use crate::joint_distance::JointMoveDistance;
 use crate::joint_move::{self, JointMove, Plan, move_limits};
 use crate::kinematics::selection::{CartesianTarget, ConfigModes, TurnMode, select};
 use crate::kinematics::turns::TurnNumbers;
@@ -104,6 +105,8 @@ pub struct Executor {
     pending_interrupt: Option<(u32, MotionSequence)>,
     /// The move taken from the queue last (the running one, if any).
     running: Option<QueuedMove>,
+    /// The TCP's curve of the running joint move, for its remaining distance.
+    joint_distance: JointMoveDistance,
     /// `(issuer, seq)` of the newest accepted command.
     accepted: Option<(u64, u64)>,
     events: EventLog,
@@ -156,6 +159,7 @@ impl Executor {
             pending_stop: None,
             pending_interrupt: None,
             running: None,
+            joint_distance: JointMoveDistance::default(),
             accepted: None,
             // Bursts end at most both sequences plus a few commands per move.
             events: EventLog::with_capacity(8 * queue_length + EVENT_SLACK),
@@ -1017,10 +1021,19 @@ impl Executor {
             Phase::Blending(blend) => Some(&blend.plan),
             _ => None,
         };
-        // Lines and arcs are parameterised by their length: s is the share travelled.
+        // Lines and arcs are parameterised by their length: s is the share travelled. A joint
+        // move's TCP (of the running command's tool) follows a curve, measured once.
         s.active_remaining_m = match active_plan {
             Some(Path::Linear(m)) => (1.0 - travelled).max(0.0) * m.length(),
-            _ => f64::NAN,
+            Some(Path::Joint(m)) => {
+                let tool = self
+                    .running
+                    .filter(|r| r.command.job == s.active_job)
+                    .map_or([0.0; 6], |r| r.command.tool);
+                self.joint_distance
+                    .remaining(m, tool, travelled, &self.kinematics)
+            }
+            None => f64::NAN,
         };
         // The path acceleration tells speeding up from slowing down, on any path.
         s.moving = point.qd.iter().any(|v| v.abs() > MOVING_VELOCITY);

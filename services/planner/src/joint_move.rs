@@ -381,6 +381,11 @@ impl JointMove {
         }))
     }
 
+    /// Joint position where the move starts.
+    pub fn start(&self) -> [f64; AXES] {
+        self.start
+    }
+
     /// Joint position where the move ends, exactly as commanded.
     pub fn target(&self) -> [f64; AXES] {
         self.target

@@ -6,7 +6,7 @@
 //! lines and arcs of the TCP), [`linear_move`] (Cartesian paths followed by the analytic
 //! inverse kinematics, or with the wrist joints interpolated: [`wrist_interpolation`]),
 //! [`topp`] (their time-optimal timing by reachability analysis, with a conic cross-check
-//! on clarabel), [`targets`] (relative targets made absolute), [`blend`] (the overlap of
+//! on clarabel), [`joint_distance`] (the TCP's distance left on a joint move), [`targets`] (relative targets made absolute), [`blend`] (the overlap of
 //! two moves for every BlendingMode), [`brake`] (stops on the path with constant bounds), [`scale_brake`] (stops on the time scale of a
 //! time-optimal table), [`motion`] (one tick
 //! of commanded motion), [`safety_filter`] (the last guard of every point before the
@@ -22,6 +22,7 @@ pub mod brake;
 pub mod cartesian_path;
 pub mod events;
 pub mod executor;
+pub mod joint_distance;
 pub mod joint_move;
 pub mod kinematics;
 pub mod linear_move;
