@@ -9,7 +9,7 @@ use shared_types::srci::tables::move_linear_absolute as mla;
 
 use super::move_requests::{follow_tcp, initialized_with_cyclic_tcp, tcp};
 use crate::common::{
-    Controller, actual_joints, expect_done, expect_error, initialize, max_deviation,
+    Controller, HOME, actual_joints, expect_done, expect_error, initialize, max_deviation,
     reset_and_enable,
 };
 
@@ -254,4 +254,41 @@ fn refusals_come_before_the_arm_moves() {
         max_deviation(before, actual_joints(&mut plc)) < 1e-6,
         "nothing moved"
     );
+}
+
+/// A line from home across the J1 axis to the mirrored pose: the wrist centre passes the
+/// shoulder singularity halfway. It is refused with 0x6C03 before the arm moves, and the
+/// next line runs from home.
+#[test]
+fn a_line_through_the_shoulder_singularity_is_refused_before_the_arm_moves() {
+    let steps = crate::common::run_passing_program(
+        "mla-singular",
+        r#"
+        [[step]]
+        call = "GroupReset"
+        [[step]]
+        call = "EnableRobot"
+        [[step]]
+        call = "MoveAxesAbsolute"
+        joints = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0]
+        [[step]]
+        call = "MoveLinearAbsolute"
+        position = [417.03, 115.01, 373.15, -180.0, 0.0, 90.0]
+        ori_mode = 1
+        config_mode = [0x11, 0x01]
+        turn_mode = 1
+        expect = "ERROR"
+        expect_code = 0x6C03
+        [[step]]
+        call = "ReadActualPosition"
+        [[step]]
+        call = "MoveLinearAbsolute"
+        position = [-417.03, 165.01, 373.15, -180.0, 0.0, 90.0]
+        ori_mode = 1
+        config_mode = [0x11, 0x01]
+        turn_mode = 1
+        "#,
+    );
+    let stood = steps[4].reached.expect("the position read").joints_deg;
+    assert!(max_deviation(stood, HOME) < 1e-3, "{stood:?}");
 }
