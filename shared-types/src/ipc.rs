@@ -365,9 +365,67 @@ pub struct JobEvent {
     pub job: u32,
     /// SRCI CmdMessageState (2 BUFFERED, 4 ACTIVE, 10 DONE, 14 ABORTED, 15 ERROR).
     pub state: u8,
-    pub reserved: u8,
+    /// [`RefusalReason`] as `u8`: why an ERROR, where its code alone does not tell.
+    pub reason: u8,
     /// SRCI message code for ABORTED and ERROR (e.g. 0x6C05), else 0.
     pub code: u16,
+}
+
+/// Why the planner refused a move, where its SRCI code (0x6C03, target unreachable, for all of
+/// them) does not tell ([`JobEvent::reason`]).
+#[repr(u8)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RefusalReason {
+    /// The code says all there is.
+    None = 0,
+    /// The target pose is out of the arm's reach in every configuration.
+    OutOfReach = 1,
+    /// The target pose is out of reach in the configuration and turns asked for.
+    NotInConfiguration = 2,
+    /// A line or arc leaves the reach of the configuration it starts in.
+    PathOutOfReach = 3,
+    /// A line or arc comes within the singularity margins.
+    Singular = 4,
+    /// A line or arc's target asks for another configuration than the one it starts in.
+    ConfigurationChange = 5,
+    /// A line or arc ends on other turn numbers than the ones sent with its target.
+    TurnMismatch = 6,
+}
+
+impl RefusalReason {
+    /// Decodes the wire value; unknown values tell nothing.
+    pub fn from_wire(v: u8) -> Self {
+        match v {
+            1 => Self::OutOfReach,
+            2 => Self::NotInConfiguration,
+            3 => Self::PathOutOfReach,
+            4 => Self::Singular,
+            5 => Self::ConfigurationChange,
+            6 => Self::TurnMismatch,
+            _ => Self::None,
+        }
+    }
+
+    /// The message text of a refusal for this reason (SRCI texts hold 150 bytes).
+    pub fn text(self) -> Option<&'static str> {
+        Some(match self {
+            Self::None => return None,
+            Self::OutOfReach => "target unreachable: out of the arm's reach in every configuration",
+            Self::NotInConfiguration => {
+                "target unreachable in the configuration and turns asked for (ConfigMode, TurnMode)"
+            }
+            Self::PathOutOfReach => {
+                "target unreachable: the path leaves the reach of the configuration it starts in"
+            }
+            Self::Singular => "target unreachable: the path comes within the singularity margins",
+            Self::ConfigurationChange => {
+                "target unreachable: the target needs another arm configuration than the line's start"
+            }
+            Self::TurnMismatch => {
+                "target unreachable: the line ends on other turn numbers than the ones sent"
+            }
+        })
+    }
 }
 
 /// planner → interpreter: the planner's state, published every tick (topic `motion/status`).
@@ -602,4 +660,24 @@ pub mod topics {
     /// Topics whose publisher wakes the subscriber through a companion event service of the
     /// same name.
     pub const WITH_WAKEUP: [&str; 3] = [P2R, R2P, SERVO_FEEDBACK];
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every reason survives the wire, and its text fits an SRCI message (150 bytes).
+    #[test]
+    fn refusal_reasons_round_trip_and_their_texts_fit_a_message() {
+        for v in 0..=7u8 {
+            let reason = RefusalReason::from_wire(v);
+            if v <= 6 {
+                assert_eq!(reason as u8, v);
+            } else {
+                assert_eq!(reason, RefusalReason::None);
+            }
+            assert_eq!(reason.text().is_none(), reason == RefusalReason::None);
+            assert!(reason.text().is_none_or(|t| t.len() <= 150));
+        }
+    }
 }

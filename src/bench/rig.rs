@@ -47,7 +47,7 @@ impl StandInPlanner {
             number: s.event_head,
             job,
             state,
-            reserved: 0,
+            reason: 0,
             code: 0,
         };
     }

@@ -231,7 +231,7 @@ mod tests {
                 } else {
                     state::ACTIVE
                 },
-                reserved: 0,
+                reason: 0,
                 code: 0,
             };
         }

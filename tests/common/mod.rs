@@ -487,8 +487,8 @@ pub fn unimplemented_request() -> Request {
 }
 
 /// Runs the PLC program `text` against a new controller (instance `tag`) with the client's
-/// default options; its steps, after asserting that every step passed.
-pub fn run_passing_program(tag: &str, text: &str) -> Vec<plc_client::StepReport> {
+/// default options, after asserting that every step passed.
+pub fn run_passing(tag: &str, text: &str) -> plc_client::Report {
     let c = Controller::start(tag);
     let program = plc_client::Program::parse(text, "test program").expect("the program");
     let report = plc_client::run_program(
@@ -499,5 +499,10 @@ pub fn run_passing_program(tag: &str, text: &str) -> Vec<plc_client::StepReport>
     )
     .expect("the run");
     assert!(report.success(), "{:#?}", report.steps);
-    report.steps
+    report
+}
+
+/// The steps of [`run_passing`].
+pub fn run_passing_program(tag: &str, text: &str) -> Vec<plc_client::StepReport> {
+    run_passing(tag, text).steps
 }

@@ -257,11 +257,12 @@ fn refusals_come_before_the_arm_moves() {
 }
 
 /// A line from home across the J1 axis to the mirrored pose: the wrist centre passes the
-/// shoulder singularity halfway. It is refused with 0x6C03 before the arm moves, and the
-/// next line runs from home.
+/// shoulder singularity halfway. It is refused with 0x6C03 before the arm moves, its message
+/// says why (it said "target unreachable in the requested configuration"), and the next line
+/// runs from home.
 #[test]
 fn a_line_through_the_shoulder_singularity_is_refused_before_the_arm_moves() {
-    let steps = crate::common::run_passing_program(
+    let report = crate::common::run_passing(
         "mla-singular",
         r#"
         [[step]]
@@ -289,6 +290,16 @@ fn a_line_through_the_shoulder_singularity_is_refused_before_the_arm_moves() {
         turn_mode = 1
         "#,
     );
-    let stood = steps[4].reached.expect("the position read").joints_deg;
+    let stood = report.steps[4]
+        .reached
+        .expect("the position read")
+        .joints_deg;
     assert!(max_deviation(stood, HOME) < 1e-3, "{stood:?}");
+    assert!(
+        report.messages.iter().any(
+            |m| m.code == u32::from(code::TARGET_UNREACHABLE) && m.text.contains("singularity")
+        ),
+        "{:?}",
+        report.messages
+    );
 }

@@ -2,7 +2,7 @@
 //! re-sent until the planner acknowledges them, the jobs in flight, and the planner's
 //! per-job events turned into updates for the commands they belong to.
 
-use shared_types::ipc::{JOB_EVENTS, MotionCommand, MotionStatus};
+use shared_types::ipc::{JOB_EVENTS, MotionCommand, MotionStatus, RefusalReason};
 
 /// Time after which an unacknowledged command is sent again.
 const RESEND_MS: u64 = 20;
@@ -18,6 +18,8 @@ pub struct JobUpdate {
     pub command_type: u16,
     pub state: u8,
     pub code: u16,
+    /// Why an ERROR, where the code does not tell.
+    pub reason: RefusalReason,
 }
 
 /// A job in flight.
@@ -167,6 +169,7 @@ impl MotionLink {
                     command_type: j.command_type,
                     state: e.state,
                     code: e.code,
+                    reason: RefusalReason::from_wire(e.reason),
                 });
                 if shared_types::srci::message::state::is_final(e.state) {
                     self.jobs.swap_remove(i);
@@ -210,6 +213,7 @@ impl MotionLink {
                 command_type: j.command_type,
                 state: shared_types::srci::message::state::ERROR,
                 code,
+                reason: RefusalReason::None,
             });
         }
     }
@@ -236,7 +240,7 @@ mod tests {
                 number: n,
                 job,
                 state: st,
-                reserved: 0,
+                reason: 0,
                 code: 0,
             };
             s.event_head = n;

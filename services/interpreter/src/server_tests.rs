@@ -248,7 +248,7 @@ fn status(instance: u64, events: &[(u64, u32, u8, u16)]) -> MotionStatus {
             number: n,
             job,
             state: st,
-            reserved: 0,
+            reason: 0,
             code: c,
         };
         s.event_head = n;

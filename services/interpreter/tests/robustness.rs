@@ -366,7 +366,7 @@ impl Harness {
                     number: self.event_head,
                     job,
                     state: state::DONE,
-                    reserved: 0,
+                    reason: 0,
                     code: 0,
                 };
             }

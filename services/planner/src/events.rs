@@ -7,7 +7,8 @@
 //! [`BURST`] at once and [`RATE_PER_S`] on average, so a reader that looks at least every
 //! `(JOB_EVENTS − BURST) / RATE_PER_S` (16 ms) sees every event.
 
-use shared_types::ipc::{JOB_EVENTS, JobEvent, MotionStatus};
+use shared_types::ipc::{JOB_EVENTS, JobEvent, MotionStatus, RefusalReason};
+use shared_types::srci::message::state;
 
 /// Events that may enter the status ring in one go.
 pub const BURST: usize = JOB_EVENTS / 2;
@@ -38,6 +39,15 @@ impl EventLog {
 
     /// Queues a state change of `job`; it gets its number when it enters the ring.
     pub fn push(&mut self, job: u32, state: u8, code: u16) {
+        self.queue(job, state, code, RefusalReason::None);
+    }
+
+    /// Queues the refusal of `job` with `code` (ERROR) and why.
+    pub fn refuse(&mut self, job: u32, code: u16, reason: RefusalReason) {
+        self.queue(job, state::ERROR, code, reason);
+    }
+
+    fn queue(&mut self, job: u32, state: u8, code: u16, reason: RefusalReason) {
         if self.len == self.pending.len() {
             self.dropped += 1;
             return;
@@ -47,7 +57,7 @@ impl EventLog {
             number: 0,
             job,
             state,
-            reserved: 0,
+            reason: reason as u8,
             code,
         };
         self.len += 1;

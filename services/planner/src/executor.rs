@@ -21,7 +21,7 @@
 use shared_types::config::Config;
 use shared_types::ipc::{
     AXES, DriveState, JointPoint, MotionCommand, MotionCommandKind, MotionSequence, MotionStatus,
-    SETPOINT_WINDOW, ServoFeedback, ServoSetpoint,
+    RefusalReason, SETPOINT_WINDOW, ServoFeedback, ServoSetpoint,
 };
 use shared_types::pose;
 use shared_types::srci::message::{code, state};
@@ -382,7 +382,7 @@ impl Executor {
             let reserve = self.dynamics.override_reserve;
             JointMove::plan(start, command, &limits, reserve)
                 .map(|_| QueuedMove::joint(*command))
-                .map_err(|e| e.code())
+                .map_err(|e| Refusal::of(e.code()))
         };
         match planned {
             Ok(mut queued) => {
@@ -403,7 +403,7 @@ impl Executor {
                 }
                 self.buffer(queued);
             }
-            Err(code) => self.report(job, state::ERROR, code),
+            Err(refusal) => self.refuse(job, refusal),
         }
     }
 
@@ -616,8 +616,15 @@ impl Executor {
     }
 
     /// The linear move of `command` from `start`, or the SRCI code why there is none.
-    fn plan_linear(&self, start: [f64; AXES], command: &MotionCommand) -> Result<LinearPlan, u16> {
-        let geometry = self.geometry.as_ref().ok_or(code::TARGET_UNREACHABLE)?;
+    fn plan_linear(
+        &self,
+        start: [f64; AXES],
+        command: &MotionCommand,
+    ) -> Result<LinearPlan, Refusal> {
+        let geometry = self
+            .geometry
+            .as_ref()
+            .ok_or(Refusal::of(code::TARGET_UNREACHABLE))?;
         let limits = move_limits(&self.dynamics.limits, command);
         let arm = Arm {
             kinematics: &self.kinematics,
@@ -626,7 +633,12 @@ impl Executor {
             tcp: &self.dynamics.tcp,
             timer: None,
         };
-        LinearMove::plan(start, command, &arm, self.dynamics.override_reserve).map_err(|e| e.code())
+        LinearMove::plan(start, command, &arm, self.dynamics.override_reserve).map_err(|e| {
+            Refusal {
+                code: e.code(),
+                reason: e.reason(),
+            }
+        })
     }
 
     /// Plans the linear move a standing arm starts next again from where the arm stands, if
@@ -660,9 +672,9 @@ impl Executor {
                     }
                     return;
                 }
-                Err(code) => {
+                Err(refusal) => {
                     self.sequences.queue_mut(sequence).pop_front();
-                    self.report(command.job, state::ERROR, code);
+                    self.refuse(command.job, refusal);
                 }
             }
         }
@@ -680,25 +692,26 @@ impl Executor {
                 joint_move.joints_rad = joints;
                 self.accept_move(&joint_move, drive);
             }
-            Err(code) => self.report(command.job, state::ERROR, code),
+            Err(refusal) => self.refuse(command.job, refusal),
         }
     }
 
-    /// The joint target (rad) of the Cartesian target of `command` within its limits, or the
-    /// SRCI code why there is none.
+    /// The joint target (rad) of the Cartesian target of `command` within its limits, or why
+    /// there is none.
     fn joint_target(
         &self,
         command: &MotionCommand,
         start: &[f64; AXES],
-    ) -> Result<[f64; AXES], u16> {
-        let geometry = self.geometry.ok_or(code::TARGET_UNREACHABLE)?;
+    ) -> Result<[f64; AXES], Refusal> {
+        let geometry = self.geometry.ok_or(Refusal::of(code::TARGET_UNREACHABLE))?;
         let target = CartesianTarget {
             // The TCP target and the tool give the flange: pose · tool⁻¹.
             flange: pose::isometry(command.pose) * pose::isometry(command.tool).inverse(),
             config: ArmConfig::from_bits(command.arm_config),
             turns: TurnNumbers::from_wire(command.turn_numbers),
-            config_modes: ConfigModes::from_wire(command.config_modes).map_err(|e| e.code())?,
-            turn_mode: TurnMode::parse(command.turn_mode).map_err(|e| e.code())?,
+            config_modes: ConfigModes::from_wire(command.config_modes)
+                .map_err(|e| Refusal::of(e.code()))?,
+            turn_mode: TurnMode::parse(command.turn_mode).map_err(|e| Refusal::of(e.code()))?,
         };
         select(
             &geometry,
@@ -706,7 +719,10 @@ impl Executor {
             start,
             &move_limits(&self.dynamics.limits, command),
         )
-        .map_err(|e| e.code())
+        .map_err(|e| Refusal {
+            code: e.code(),
+            reason: e.reason(),
+        })
     }
 
     /// Where the move of `command` is expected to start: where the arm stands for an
@@ -984,6 +1000,10 @@ impl Executor {
         self.events.push(job, state, code);
     }
 
+    fn refuse(&mut self, job: u32, refusal: Refusal) {
+        self.events.refuse(job, refusal.code, refusal.reason);
+    }
+
     fn update_status(&mut self, feedback: &ServoFeedback) {
         let point = &self.motion.point;
         let s = &mut self.status;
@@ -1040,6 +1060,23 @@ impl Executor {
         s.accelerating = s.moving && path_acceleration > 1e-9;
         s.decelerating = s.moving && path_acceleration < -1e-9;
         s.constant_velocity = s.moving && !s.accelerating && !s.decelerating;
+    }
+}
+
+/// Why a move is refused: its SRCI code, and what the code does not tell.
+#[derive(Debug, Clone, Copy)]
+struct Refusal {
+    code: u16,
+    reason: RefusalReason,
+}
+
+impl Refusal {
+    /// A refusal its code explains.
+    fn of(code: u16) -> Self {
+        Self {
+            code,
+            reason: RefusalReason::None,
+        }
     }
 }
 

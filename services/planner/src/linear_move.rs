@@ -76,7 +76,7 @@ use core::f64::consts::TAU;
 
 use nalgebra::{Isometry3, Vector3};
 use shared_types::config::{CartesianLimits, JointLimitsRad};
-use shared_types::ipc::{AXES, JointPoint, MotionCommand};
+use shared_types::ipc::{AXES, JointPoint, MotionCommand, RefusalReason};
 use shared_types::pose;
 use shared_types::srci::message::code;
 
@@ -180,6 +180,17 @@ impl LinearError {
             | Self::Singular { .. }
             | Self::ConfigurationChange
             | Self::TurnMismatch => code::TARGET_UNREACHABLE,
+        }
+    }
+
+    /// Why, where the code does not tell.
+    pub fn reason(&self) -> RefusalReason {
+        match self {
+            Self::Unreachable { .. } => RefusalReason::PathOutOfReach,
+            Self::Singular { .. } => RefusalReason::Singular,
+            Self::ConfigurationChange => RefusalReason::ConfigurationChange,
+            Self::TurnMismatch => RefusalReason::TurnMismatch,
+            _ => RefusalReason::None,
         }
     }
 }

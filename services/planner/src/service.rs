@@ -11,8 +11,8 @@ use shared_types::bus::{Bus, BusError, publish, receive_latest, wait_for_wakeup}
 use shared_types::config::Config;
 use shared_types::health::{HealthReporter, Service};
 use shared_types::ipc::{
-    JOB_EVENTS, MotionCommand, MotionCommandKind, MotionStatus, ServoFeedback, ServoSetpoint,
-    topics,
+    JOB_EVENTS, MotionCommand, MotionCommandKind, MotionStatus, RefusalReason, ServoFeedback,
+    ServoSetpoint, topics,
 };
 use shared_types::srci::message::state;
 use tracing::{debug, info, warn};
@@ -170,10 +170,11 @@ impl ChangeLog {
             let event = &status.events[(number % JOB_EVENTS as u64) as usize];
             let name = state::name(event.state);
             if event.state == state::ERROR {
+                let why = RefusalReason::from_wire(event.reason).text().unwrap_or("");
                 warn!(
                     job = event.job,
                     code = format_args!("{:#06X}", event.code),
-                    "job {name}"
+                    "job {name} {why}"
                 );
             } else {
                 debug!(

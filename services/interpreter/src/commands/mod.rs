@@ -481,13 +481,32 @@ impl Server {
         }
     }
 
-    /// Queues a response to the command `cmd_id` (header `h`) and ends it if `st` is final.
+    /// Queues a response to the command `cmd_id` (header `h`) and ends it if `st` is final;
+    /// an ERROR raises a message with the text of its code.
     pub(crate) fn respond(
         &mut self,
         cmd_id: u16,
         h: CommandHeader,
         st: u8,
         code: u16,
+        now: Now,
+        fill: impl FnOnce(&mut [u8]),
+    ) {
+        self.respond_telling(cmd_id, h, st, code, describe(code), now, fill);
+    }
+
+    /// [`respond`](Self::respond), an ERROR raising its message with `text`.
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "respond's arguments and the message text of an ERROR"
+    )]
+    pub(crate) fn respond_telling(
+        &mut self,
+        cmd_id: u16,
+        h: CommandHeader,
+        st: u8,
+        code: u16,
+        text: &str,
         now: Now,
         fill: impl FnOnce(&mut [u8]),
     ) {
@@ -509,13 +528,7 @@ impl Server {
             self.acr.release(cmd_id);
             self.live.retain(|l| l.cmd_id != cmd_id);
             if st == state::ERROR {
-                self.raise(
-                    now,
-                    MessageType::Command,
-                    severity::ERROR,
-                    code,
-                    describe(code),
-                );
+                self.raise(now, MessageType::Command, severity::ERROR, code, text);
             }
         }
     }

@@ -14,7 +14,9 @@ use shared_types::srci::tables::{
 };
 
 use super::sequence::write_primary_pos;
-use super::{LineTarget, LiveKind, blending, circular, joint_line, offset, relative, wait};
+use super::{
+    LineTarget, LiveKind, blending, circular, describe, joint_line, offset, relative, wait,
+};
 use crate::motion_link::JobUpdate;
 use crate::server::{Effects, Now, Server};
 use crate::tcp_pose::{self, WirePose};
@@ -632,7 +634,8 @@ impl Server {
         // GroupStop reports whether it aborted moves of the primary sequence (1) or none (0).
         let aborted_sequence = i8::from(aborts_moves);
         let command_type = u.command_type;
-        self.respond(u.cmd_id, h, u.state, u.code, now, |b| {
+        let text = u.reason.text().unwrap_or(describe(u.code));
+        self.respond_telling(u.cmd_id, h, u.state, u.code, text, now, |b| {
             let mut w = PayloadWriter::new(b);
             match command_type {
                 rtp::TYPE => {

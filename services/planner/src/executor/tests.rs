@@ -1678,6 +1678,21 @@ mod linear {
             rig.states_of(4),
             vec![(state::ERROR, code::INVALID_DECELERATION_RATE)]
         );
+        // 0x6C03 says why in the event (2 m away, the arm stretches into the elbow's
+        // singularity margin first); the other codes tell by themselves.
+        let reason = |job| {
+            let e = rig.events.iter().find(|e| e.job == job).expect("an event");
+            RefusalReason::from_wire(e.reason)
+        };
+        assert_eq!(
+            [1, 2, 3, 4].map(reason),
+            [
+                RefusalReason::Singular,
+                RefusalReason::None,
+                RefusalReason::ConfigurationChange,
+                RefusalReason::None
+            ]
+        );
         assert_eq!(rig.executor.status().queued_jobs, 0);
         for _ in 0..10 {
             rig.step(&[]);

@@ -15,7 +15,7 @@ use core::f64::consts::TAU;
 
 use nalgebra::Isometry3;
 use shared_types::config::JointLimitsRad;
-use shared_types::ipc::AXES;
+use shared_types::ipc::{AXES, RefusalReason};
 use shared_types::srci::message::code;
 
 use super::turns::{TurnNumbers, split_turn};
@@ -179,6 +179,15 @@ impl SelectionError {
         match self {
             Self::Kinematics(_) | Self::NotInConfiguration => code::TARGET_UNREACHABLE,
             Self::OutsideLimits(error) => error.code(),
+        }
+    }
+
+    /// Why, where the code does not tell.
+    pub fn reason(&self) -> RefusalReason {
+        match self {
+            Self::Kinematics(IkError::Unreachable) => RefusalReason::OutOfReach,
+            Self::NotInConfiguration => RefusalReason::NotInConfiguration,
+            _ => RefusalReason::None,
         }
     }
 }
