@@ -486,6 +486,17 @@ pub fn unimplemented_request() -> Request {
     }
 }
 
+/// The first steps of a test program: reset, enable, and the arm to [`HOME`].
+pub const FROM_HOME: &str = r#"
+[[step]]
+call = "GroupReset"
+[[step]]
+call = "EnableRobot"
+[[step]]
+call = "MoveAxesAbsolute"
+joints = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0]
+"#;
+
 /// Runs the PLC program `text` against a new controller (instance `tag`) with the client's
 /// default options, after asserting that every step passed.
 pub fn run_passing(tag: &str, text: &str) -> plc_client::Report {

@@ -264,14 +264,8 @@ fn refusals_come_before_the_arm_moves() {
 fn a_line_through_the_shoulder_singularity_is_refused_before_the_arm_moves() {
     let report = crate::common::run_passing(
         "mla-singular",
-        r#"
-        [[step]]
-        call = "GroupReset"
-        [[step]]
-        call = "EnableRobot"
-        [[step]]
-        call = "MoveAxesAbsolute"
-        joints = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0]
+        &(crate::common::FROM_HOME.to_owned()
+            + r#"
         [[step]]
         call = "MoveLinearAbsolute"
         position = [417.03, 115.01, 373.15, -180.0, 0.0, 90.0]
@@ -288,7 +282,7 @@ fn a_line_through_the_shoulder_singularity_is_refused_before_the_arm_moves() {
         ori_mode = 1
         config_mode = [0x11, 0x01]
         turn_mode = 1
-        "#,
+        "#),
     );
     let stood = report.steps[4]
         .reached

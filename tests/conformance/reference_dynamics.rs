@@ -8,7 +8,7 @@ use shared_types::srci::tables::{
     read_robot_reference_dynamics as rrd, write_robot_reference_dynamics as wrd,
 };
 
-use crate::common::{Edit, expect_done, expect_error, initialized, run_passing_program};
+use crate::common::{Edit, FROM_HOME, expect_done, expect_error, initialized, run_passing_program};
 
 #[test]
 fn reference_dynamics_within_the_robot() {
@@ -90,17 +90,11 @@ fn reference_dynamics_within_the_robot() {
 fn a_lower_reference_velocity_slows_the_tcp_of_a_line() {
     let steps = run_passing_program(
         "rdyn-line",
-        r#"
-        [[step]]
-        call = "GroupReset"
-        [[step]]
-        call = "EnableRobot"
+        &(FROM_HOME.to_owned()
+            + r#"
         [[step]]
         call = "ChangeSpeedOverride"
         override = 100.0
-        [[step]]
-        call = "MoveAxesAbsolute"
-        joints = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0]
         [[step]]
         call = "WriteRobotReferenceDynamics"
         velocity_reference = 100.0
@@ -115,7 +109,7 @@ fn a_lower_reference_velocity_slows_the_tcp_of_a_line() {
         turn_mode = 1
         [[step]]
         call = "ReadActualPosition"
-        "#,
+        "#),
     );
     let line = &steps[5];
     let took = line.duration.expect("the line ended").as_secs_f64();

@@ -126,14 +126,8 @@ fn an_excursion_on_the_secondary_sequence_and_back_to_the_primary_path() {
 fn a_jog_away_from_a_held_move_needs_the_way_back_before_it_continues() {
     let s = &crate::common::run_passing_program(
         "jogaway",
-        r#"
-        [[step]]
-        call = "GroupReset"
-        [[step]]
-        call = "EnableRobot"
-        [[step]]
-        call = "MoveAxesAbsolute"
-        joints = [0.0, 90.0, 90.0, 90.0, -90.0, 0.0]
+        &(crate::common::FROM_HOME.to_owned()
+            + r#"
         [[step]]
         call = "MoveAxesAbsolute"
         joints = [40.0, 90.0, 90.0, 90.0, -90.0, 0.0]
@@ -171,7 +165,7 @@ fn a_jog_away_from_a_held_move_needs_the_way_back_before_it_continues() {
         [[step]]
         call = "ReadActualPosition"
         delay_ms = 3000
-        "#,
+        "#),
     );
     assert_eq!(s[9].code, code::NOT_IN_PRIMARY_POSITION);
     let left_at = s[5].reached.expect("where the move was held").joints_deg;
