@@ -175,6 +175,35 @@ fn rc_plc_with_plot_writes_the_motion_of_the_run() {
     }
 }
 
+/// The shipped example `plc-client/programs/blends.toml`: through the real processes, every
+/// BlendingMode (2, 4, 10, 12, 11, 3) blends its move into the next (line into arc, arc into
+/// line, line into joint move, joint move into line, line into joint move, joint into joint
+/// move): all steps DONE, six overlaps in the plot, and the arm home where it ended.
+#[test]
+fn the_shipped_blends_program_blends_by_every_mode() {
+    let c = Controller::start("blends");
+    let program = Path::new(env!("CARGO_MANIFEST_DIR")).join("plc-client/programs/blends.toml");
+    let (stdout, svg) = plc_with_plot(&c, &program);
+    assert!(
+        stdout.contains("result: SUCCESS (12/12 steps passed)"),
+        "{stdout}"
+    );
+    assert_eq!(
+        spans(&svg, "blending").len(),
+        6,
+        "one overlap per mode: {svg}"
+    );
+}
+
+/// The widths (px) of the plot's spans of `class` (blending, interrupted, ...).
+fn spans(svg: &str, class: &str) -> Vec<f64> {
+    elements(svg, "rect")
+        .into_iter()
+        .filter(|r| r.contains(&format!("class=\"{class}\"")) && r.contains("y=\"100\""))
+        .map(|r| attribute_f64(r, "width"))
+        .collect()
+}
+
 /// The shipped example `plc-client/programs/cell.toml`, whose moves are written with the
 /// specification's field names: every step passes through the real processes, its two
 /// corner blends (line into circle, circle into line) and its interrupt show in the plot, the
@@ -215,13 +244,7 @@ fn the_shipped_cell_program_runs_its_lines_circle_blends_and_interrupt() {
             "{call} DONE in\n{stdout}"
         );
     }
-    let spans = |class: &str| {
-        elements(&svg, "rect")
-            .into_iter()
-            .filter(|r| r.contains(&format!("class=\"{class}\"")) && r.contains("y=\"100\""))
-            .map(|r| attribute_f64(r, "width"))
-            .collect::<Vec<_>>()
-    };
+    let spans = |class: &str| spans(&svg, class);
     assert!(spans("blending").len() >= 2, "two blends: {svg}");
     // From the GroupInterrupt to the GroupContinue 300 ms after the arm stood: about 0.7 s
     // of the 6-odd seconds over 940 px.
