@@ -23,7 +23,7 @@ use crate::program::{Expect, Program, Step, Wait};
 use crate::report::StepReport;
 use crate::request::Request;
 use crate::response::{ActualPosition, MoveProgress, RobotMessage, fields_by_name, robot_enabled};
-use crate::target::{Target, Tolerance};
+use crate::target::{Deviation, Target, Tolerance};
 use crate::transport::Transport;
 
 /// What a program run reports while it goes, for live display.
@@ -81,6 +81,8 @@ struct Tracked {
     position_for: Option<usize>,
     /// For a move, where it was read back; for a ReadActualPosition step, what it read.
     reached: Option<ActualPosition>,
+    /// For a move, how far the read lies from its target.
+    deviation: Option<Deviation>,
     passed: bool,
     note: String,
 }
@@ -297,9 +299,12 @@ impl<T: Transport> Executor<'_, T> {
         let position_for = t.position_for;
         if let Some(read) = position {
             t.reached = Some(read);
-            if let Some(m) = position_for {
-                self.tracked[m].reached.get_or_insert(read);
-                self.check_position(m);
+            if let (Some(m), Request::ReadActualPosition { tool, frame }) =
+                (position_for, &step.request)
+                && self.tracked[m].reached.is_none()
+            {
+                self.tracked[m].reached = Some(read);
+                self.check_position(m, (*tool, *frame));
             }
         }
         if let Some(outcome) = outcome {
@@ -329,24 +334,26 @@ impl<T: Transport> Executor<'_, T> {
         });
     }
 
-    /// Fails a move whose read-back position is off its target; remarks on one that cannot
-    /// be compared with its read.
-    fn check_position(&mut self, m: usize) {
+    /// Compares a move with its read-back position (read in the tool and frame `asked`):
+    /// fails it when off its target, remarks on one that cannot be compared.
+    fn check_position(&mut self, m: usize, asked: (u8, u8)) {
         let t = &mut self.tracked[m];
         let (Some(target), Some(reached)) = (Target::of(&self.steps[m].request), t.reached) else {
             return;
         };
         let tolerance = self.position_tolerance;
-        match target.deviation(&reached) {
-            Ok(d) if t.passed && !d.within(tolerance) => {
-                t.passed = false;
-                t.note = format!(
-                    "reached {d} off target (tolerance {} mm, {} deg)",
-                    tolerance.mm, tolerance.deg
-                );
-                self.stopped = true;
+        match target.deviation(&reached, asked) {
+            Ok(d) => {
+                t.deviation = Some(d);
+                if t.passed && !d.within(tolerance) {
+                    t.passed = false;
+                    t.note = format!(
+                        "reached {d} off target (tolerance {} mm, {} deg)",
+                        tolerance.mm, tolerance.deg
+                    );
+                    self.stopped = true;
+                }
             }
-            Ok(_) => {}
             Err(reason) if t.note.is_empty() => t.note = reason,
             Err(_) => {}
         }
@@ -372,6 +379,7 @@ impl<T: Transport> Executor<'_, T> {
                     duration: t.ended_at.map(|e| e.saturating_sub(t.submitted_at)),
                     target: Target::of(&step.request),
                     reached: t.reached,
+                    deviation: t.deviation,
                     passed: t.passed,
                     note: t.note.clone(),
                     response: self.response_fields(step, t),
@@ -482,7 +490,6 @@ fn judge(step: &Step, outcome: Outcome) -> (bool, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::target::Deviation;
     use crate::testing::FakeRobot;
     use crate::{ClientOptions, run_program_over};
 
@@ -549,7 +556,7 @@ mod tests {
         assert_eq!(s[4].state, "DONE");
         assert_eq!(s[4].reached, None, "no read between move B and move C");
         assert!(
-            matches!(s[5].deviation(), Some(Deviation::Joints { deg }) if deg < 1e-4),
+            matches!(s[5].deviation, Some(Deviation::Joints { deg }) if deg < 1e-4),
             "{table}"
         );
         assert_eq!(s[7].state, "ACTIVE");

@@ -4,7 +4,7 @@ use std::io::{self, Write};
 use std::time::Duration;
 
 use crate::response::{ActualPosition, RobotData, RobotMessage};
-use crate::target::{Deviation, Target};
+use crate::target::{Deviation, Target, six_values};
 use crate::transport::RoundTripSummary;
 
 /// The result of one step.
@@ -27,6 +27,8 @@ pub struct StepReport {
     /// step submitted after it was DONE (and before the next move); for a
     /// ReadActualPosition step, what it read.
     pub reached: Option<ActualPosition>,
+    /// How far `reached` lies from `target`, where the two could be compared.
+    pub deviation: Option<Deviation>,
     pub passed: bool,
     /// Why the step failed, or other remarks (a target that could not be compared).
     pub note: String,
@@ -36,23 +38,12 @@ pub struct StepReport {
 }
 
 impl StepReport {
-    /// How far the position read back lies from the target, for moves with both in the
-    /// same tool and frame.
-    pub fn deviation(&self) -> Option<Deviation> {
-        self.target?.deviation(&self.reached?).ok()
-    }
-
     /// The position read back, as the target is given: the pose for a pose, else the
     /// joints.
     fn reached_text(&self) -> String {
         match (self.target, self.reached) {
             (_, None) => "-".to_owned(),
-            (Some(Target::Pose { tool, frame, .. }), Some(r)) => Target::Pose {
-                pose: r.cartesian,
-                tool,
-                frame,
-            }
-            .to_string(),
+            (Some(Target::Pose { .. }), Some(r)) => format!("pose {}", six_values(&r.cartesian)),
             (_, Some(r)) => Target::Joints(r.joints_deg).to_string(),
         }
     }
@@ -112,7 +103,7 @@ impl Report {
                     s.duration.map_or_else(|| "-".to_owned(), ms),
                     s.target.map_or_else(|| "-".to_owned(), |t| t.to_string()),
                     s.reached_text(),
-                    s.deviation()
+                    s.deviation
                         .map_or_else(|| "-".to_owned(), |d| d.to_string()),
                     if s.passed && s.note.is_empty() {
                         "ok".to_owned()
@@ -211,6 +202,7 @@ mod tests {
             duration: Some(Duration::from_millis(12)),
             target: None,
             reached: None,
+            deviation: None,
             passed,
             note: String::new(),
             response: Vec::new(),
@@ -223,6 +215,7 @@ mod tests {
             cartesian: [0.0; 6],
             joints_deg: [0.0, 90.5, 90.0, 90.0, -90.0, 0.0],
         });
+        mv.deviation = Some(Deviation::Joints { deg: 0.5 });
         mv.note = "expected ABORTED".to_owned();
         let mut read = step(3, "ReadToolData", true);
         read.response = vec![
@@ -241,10 +234,6 @@ mod tests {
             robot: None,
         };
         assert!(!report.success());
-        assert_eq!(
-            report.steps[1].deviation(),
-            Some(Deviation::Joints { deg: 0.5 })
-        );
         let mut out = Vec::new();
         report.print_table(&mut out).unwrap();
         let text = String::from_utf8(out).unwrap();

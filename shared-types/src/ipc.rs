@@ -419,10 +419,10 @@ impl RefusalReason {
             }
             Self::Singular => "target unreachable: the path comes within the singularity margins",
             Self::ConfigurationChange => {
-                "target unreachable: the target needs another arm configuration than the line's start"
+                "target unreachable: the target needs another arm configuration than the path's start"
             }
             Self::TurnMismatch => {
-                "target unreachable: the line ends on other turn numbers than the ones sent"
+                "target unreachable: the path ends on other turn numbers than the ones sent"
             }
         })
     }
@@ -448,8 +448,8 @@ pub struct MotionStatus {
     pub active_job: u32,
     pub queued_jobs: u32,
     pub active_progress: f64,
-    /// TCP path length (m) the active Cartesian move (line or arc) still has to go; NaN
-    /// when no Cartesian move is active.
+    /// TCP path length (m) the active move still has to go: along a line or arc, or the
+    /// TCP's curve of a joint move (with the tool of its command); NaN when none is active.
     pub active_remaining_m: f64,
     /// Commanded joint positions and velocities (rad, rad/s).
     pub joints_rad: [f64; AXES],

@@ -62,9 +62,12 @@
 //! Where both moves are Cartesian, the speeds of their TCPs add up as well (two lines on in
 //! the same direction, B speeding up while A still cruises): the TCP of each, on the
 //! blended joints, keeps the higher of the two moves' programmed speeds (their
-//! VelocityRates of the TCP limit), sampled at the same points with a margin for what the
-//! TCP jerk of both allows between them; beyond it the overlap shrinks too. A joint move
-//! keeps no TCP speed, so a blend with one is bounded by the joint limits alone.
+//! VelocityRates of the TCP limit), sampled at the same points where both move, with a
+//! margin for what the TCP jerk of both allows between them; beyond it the overlap shrinks
+//! too. Two lines at an angle add their speeds as vectors, so where the first still cruises
+//! at its speed the second cannot start: such an overlap begins in the first's braking ramp
+//! at the earliest. A joint move keeps no TCP speed (nor does its TCP keep the robot's TCP
+//! limit on its own), so a blend with one is bounded by the joint limits alone.
 //!
 //! The jerks of the two moves add up as well: where both change a joint's acceleration the
 //! same way at their jerk limits (A easing its braking while B starts the joint on, say),
@@ -552,7 +555,9 @@ impl<'a, A: Leg, B: Leg> Sampler<'a, A, B> {
         let tcp_bound = self.tcp_speed_bound();
         for k in 0..=samples {
             let (a, b) = self.legs(overlap, h * k as f64);
-            if let Some((speed, jerk)) = tcp_bound {
+            // Where one move stands, the other's own plan keeps its TCP speed.
+            let moving = |p: &JointPoint| p.qd.iter().any(|v| *v != 0.0);
+            if let Some((speed, jerk)) = tcp_bound.filter(|_| moving(&a) && moving(&b)) {
                 let q = core::array::from_fn(|i| a.q[i] + b.q[i] - corner[i]);
                 let qd = core::array::from_fn(|i| a.qd[i] + b.qd[i]);
                 // Between samples the speed may rise by what the jerk of both allows.

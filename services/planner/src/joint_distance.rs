@@ -94,23 +94,26 @@ mod tests {
         else {
             panic!("a joint move");
         };
-        let tool = [0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
-        let tcp = (kinematics.flange(&start) * pose::isometry(tool))
-            .translation
-            .vector;
-        let radius = tcp.x.hypot(tcp.y);
+        let radius = |tool| {
+            let tcp = (kinematics.flange(&start) * pose::isometry(tool))
+                .translation
+                .vector;
+            tcp.x.hypot(tcp.y)
+        };
+        // 15 cm out along the flange's x: another radius about the base axis than the
+        // flange's, so another curve.
+        let tool = [0.15, 0.0, 0.1, 0.0, 0.0, 0.0];
+        assert!((radius(tool) - radius([0.0; 6])).abs() > 0.05);
         let mut distance = JointMoveDistance::default();
-        for s in [0.0, 0.25, 0.6, 1.0] {
-            let left = distance.remaining(&m, tool, s, &kinematics);
-            let arc = radius * (1.0 - s);
-            assert!(
-                (left - arc).abs() < 1e-4 * radius,
-                "{left} {arc} at s = {s}"
-            );
+        for tool in [tool, [0.0; 6], tool] {
+            for s in [0.0, 0.25, 0.6, 1.0] {
+                let left = distance.remaining(&m, tool, s, &kinematics);
+                let arc = radius(tool) * (1.0 - s);
+                assert!(
+                    (left - arc).abs() < 1e-4 * radius(tool),
+                    "{left} {arc} at s = {s}"
+                );
+            }
         }
-        // Another tool is another curve.
-        let flange = distance.remaining(&m, [0.0; 6], 0.0, &kinematics);
-        let at_flange = kinematics.flange(&start).translation.vector;
-        assert!((flange - at_flange.x.hypot(at_flange.y)).abs() < 1e-4);
     }
 }

@@ -550,8 +550,8 @@ pub struct LinearMove {
     warp: Option<PathWarp>,
     /// The limits a stop on the time scale of a table keeps.
     scale_limits: ScaleLimits,
-    /// The robot's TCP limits times the command's rates: what the move keeps, and a blend
-    /// into another Cartesian move (see [`blend`](crate::blend)).
+    /// The robot's TCP limits times the reference dynamics and the command's rates: what the
+    /// move keeps, and a blend into another Cartesian move (see [`blend`](crate::blend)).
     tcp_limits: TcpLimits,
 }
 
@@ -636,7 +636,8 @@ impl LinearMove {
         &self.scale_limits
     }
 
-    /// The robot's TCP limits times the command's rates.
+    /// The TCP limits of the move: the robot's times the PLC's reference dynamics and the
+    /// command's rates.
     pub fn tcp_limits(&self) -> &TcpLimits {
         &self.tcp_limits
     }

@@ -350,9 +350,9 @@ pub(super) fn ori_mode(msg: &[u8], field: Field) -> Result<u8, u16> {
 }
 
 /// Progress (percent × 100) of a move response; the moves with RemainingDistance (mm) carry
-/// it too: the path length left of a running line or arc, "no valid value" (-1) for the
-/// others until they reach the target (0). WaitTime reports its ElapsedTime (ms) of
-/// `wait_ms` instead.
+/// it too: the TCP's path length left of the running move (a line, an arc, or the curve of
+/// a joint move), "no valid value" (-1) while none is known, 0 at the target. WaitTime
+/// reports its ElapsedTime (ms) of `wait_ms` instead.
 fn write_progress(
     w: &mut PayloadWriter<'_>,
     command_type: u16,
