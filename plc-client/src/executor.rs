@@ -103,6 +103,11 @@ pub(crate) fn execute<T: Transport>(
         position_tolerance,
         progress,
         tracked: vec![Tracked::default(); program.steps.len()],
+        targets: program
+            .steps
+            .iter()
+            .map(|s| Target::of(&s.request))
+            .collect(),
         last_move: None,
         stopped: false,
         messages: Vec::new(),
@@ -119,6 +124,8 @@ struct Executor<'a, T: Transport> {
     position_tolerance: Tolerance,
     progress: &'a mut dyn FnMut(&ProgressEvent),
     tracked: Vec<Tracked>,
+    /// The absolute target of each step's move, if it has one.
+    targets: Vec<Option<Target>>,
     last_move: Option<usize>,
     stopped: bool,
     messages: Vec<RobotMessage>,
@@ -202,7 +209,7 @@ impl<T: Transport> Executor<'_, T> {
         t.responses_before = responses_before;
         match step.request {
             Request::ReadActualPosition { .. } => t.position_for = position_for,
-            _ if Target::of(&step.request).is_some() => self.last_move = Some(i),
+            _ if self.targets[i].is_some() => self.last_move = Some(i),
             // A position read after another move no longer tells where this one ended.
             _ if step.request.moves_the_arm() => self.last_move = None,
             _ => {}
@@ -338,7 +345,7 @@ impl<T: Transport> Executor<'_, T> {
     /// fails it when off its target, remarks on one that cannot be compared.
     fn check_position(&mut self, m: usize, asked: (u8, u8)) {
         let t = &mut self.tracked[m];
-        let (Some(target), Some(reached)) = (Target::of(&self.steps[m].request), t.reached) else {
+        let (Some(target), Some(reached)) = (self.targets[m], t.reached) else {
             return;
         };
         let tolerance = self.position_tolerance;
@@ -377,7 +384,7 @@ impl<T: Transport> Executor<'_, T> {
                     state: state.to_owned(),
                     code: t.code(),
                     duration: t.ended_at.map(|e| e.saturating_sub(t.submitted_at)),
-                    target: Target::of(&step.request),
+                    target: self.targets[i],
                     reached: t.reached,
                     deviation: t.deviation,
                     passed: t.passed,

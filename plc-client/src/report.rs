@@ -44,7 +44,7 @@ impl StepReport {
         match (self.target, self.reached) {
             (_, None) => "-".to_owned(),
             (Some(Target::Pose { .. }), Some(r)) => format!("pose {}", six_values(&r.cartesian)),
-            (_, Some(r)) => Target::Joints(r.joints_deg).to_string(),
+            (_, Some(r)) => format!("joints {}", six_values(&r.joints_deg)),
         }
     }
 }

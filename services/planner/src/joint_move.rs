@@ -207,7 +207,8 @@ impl Timing {
     ) -> Result<Self, MoveError> {
         let (fastest, override_rate) = Self::fastest_profile(limits, reserve);
         Self::with_profile(
-            [limits, stop],
+            limits,
+            stop,
             Profile::DoubleS(fastest),
             override_rate,
             command,
@@ -286,7 +287,8 @@ impl Timing {
     /// stretched to the command's duration if that is positive; a requested duration
     /// shorter than the profile is an error.
     pub fn with_profile(
-        [limits, stop]: [PathLimits; 2],
+        limits: PathLimits,
+        stop: PathLimits,
         fastest: Profile,
         override_rate: f64,
         command: &MotionCommand,

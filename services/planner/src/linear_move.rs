@@ -598,7 +598,7 @@ impl LinearMove {
             }
         }
         let limits = path_limits(command, &survey, path.length(), arm, reserve);
-        if !limits[0].velocity.is_finite() {
+        if !limits.0.velocity.is_finite() {
             // A reorientation too small to move any joint measurably.
             return Ok(LinearPlan::Stationary(start));
         }
@@ -702,14 +702,15 @@ impl LinearMove {
 
 /// The path limits of a surveyed line of `length` m (see the module documentation): of the
 /// candidates on a grid of path speeds and of splits of the jerk budget, the one with the
-/// shortest profile; and at its speed and split, the limits of a stop (the rates at 100 %).
+/// shortest profile; and at its speed and split, the limits of a stop (the rates at 100 %):
+/// `(move, stop)`.
 fn path_limits(
     command: &MotionCommand,
     survey: &Survey,
     length: f64,
     arm: &Arm<'_>,
     reserve: f64,
-) -> [PathLimits; 2] {
+) -> (PathLimits, PathLimits) {
     let cartesian = cartesian_limits(command, length, arm.tcp);
     let bounds = JointBounds::new(survey, arm.joints);
     let fastest = bounds.fastest(command, cartesian.velocity);
@@ -731,11 +732,9 @@ fn path_limits(
         ..*command
     };
     let full_cartesian = cartesian_limits(&full, length, arm.tcp);
-    best.map_or([cartesian, full_cartesian], |(_, limits, split)| {
-        [
-            limits,
-            bounds.at(&full, &full_cartesian, limits.velocity, split),
-        ]
+    best.map_or((cartesian, full_cartesian), |(_, limits, split)| {
+        let stop = bounds.at(&full, &full_cartesian, limits.velocity, split);
+        (limits, stop)
     })
 }
 
@@ -793,7 +792,7 @@ fn cartesian_limits(command: &MotionCommand, length: f64, tcp: &TcpLimits) -> Pa
 
 /// The timing of a surveyed path: the time-optimal table of [`topp`] where the timer (if
 /// any) finds one faster than the double-S on the constant bounds `limits`, else that
-/// double-S (a failure of the timer is logged). The tables are those of the candidates of
+/// double-S (a failure of the timer is logged); a stop on the double-S brakes within `stop`. The tables are those of the candidates of
 /// [`table_limits`] by the path position and one on the joints' pace ([`joint_pace`], with
 /// its warp); the fastest is taken. The table's override rate is one
 /// the reserve pays for at every point.
@@ -802,13 +801,14 @@ fn timing(
     line: &Line,
     survey: &Survey,
     samples: &PathSamples,
-    limits: [PathLimits; 2],
+    (limits, stop): (PathLimits, PathLimits),
     arm: &Arm<'_>,
     reserve: f64,
 ) -> Result<(Timing, Option<PathWarp>), LinearError> {
-    let (fastest_constant, constant_rate) = Timing::fastest_profile(limits[0], reserve);
+    let (fastest_constant, constant_rate) = Timing::fastest_profile(limits, reserve);
     let constant = Timing::with_profile(
         limits,
+        stop,
         Profile::DoubleS(fastest_constant),
         constant_rate,
         command,
@@ -876,7 +876,7 @@ fn timing(
         return Ok((constant?, None));
     };
     Ok((
-        Timing::with_profile(limits, Profile::Table(table), override_rate, command)?,
+        Timing::with_profile(limits, stop, Profile::Table(table), override_rate, command)?,
         warp,
     ))
 }
